@@ -1,0 +1,99 @@
+#include "hisfm/exe/option_flags.h"
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/logging.h"
+
+namespace hisfm {
+
+void AddHierarchicalMapperFlags(CLI::App& app,
+                                HierarchicalMapperOptions* o) {
+  auto& h = o->hierarchy;
+  app.add_option("--HiSfM.min_num_matches", o->min_num_matches,
+                 "Ignore verified pairs with fewer inliers")
+      ->capture_default_str();
+  app.add_option("--HiSfM.top_k", h.communities.top_k,
+                 "Strongest neighbours kept per image to form communities (k)")
+      ->capture_default_str();
+  app.add_option("--HiSfM.num_trees", h.skeleton.num_trees,
+                 "Spanning trees packed over the communities (K); 0 = "
+                 "max(1, round(n / images_per_tree))")
+      ->capture_default_str();
+  app.add_option("--HiSfM.images_per_tree", h.skeleton.images_per_tree,
+                 "Images per tree for the automatic K")
+      ->capture_default_str();
+  app.add_option("--HiSfM.verify_threshold", h.skeleton.verify_threshold,
+                 "Minimum verifier score for a bridge (tau)")
+      ->capture_default_str();
+  app.add_option("--HiSfM.num_top_bridges", h.skeleton.num_top_bridges,
+                 "Extra verified top-weight bridges after the trees")
+      ->capture_default_str();
+  app.add_option("--HiSfM.num_backup_bridges", h.skeleton.num_backup_bridges,
+                 "Verified backup bridges per weak tree bridge")
+      ->capture_default_str();
+  app.add_option("--HiSfM.weak_link_max_inliers",
+                 h.skeleton.weak_link_max_inliers,
+                 "Tree bridges with fewer inliers are weak links")
+      ->capture_default_str();
+  app.add_option("--HiSfM.restore_connectivity",
+                 h.skeleton.restore_connectivity,
+                 "Repair the trees' union to K-edge-connectivity across "
+                 "minimum cuts")
+      ->capture_default_str();
+  app.add_option("--HiSfM.leaf_edges", h.leaves.leaf_edges,
+                 "Edges per leaf to skeletal images of its community")
+      ->capture_default_str();
+  app.add_option("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,
+                 "Extra leaf-to-leaf edges per leaf inside its community")
+      ->capture_default_str();
+  app.add_option("--HiSfM.verifier", o->verifier.verifier,
+                 "Bridge verifier: builtin, none, scores:FILE, command:CMD")
+      ->capture_default_str();
+  app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
+                 "Bridges per call of a command verifier")
+      ->capture_default_str();
+  app.add_option("--HiSfM.global_bundle_adjustment",
+                 o->global_bundle_adjustment,
+                 "Run one global bundle adjustment at the end")
+      ->capture_default_str();
+  app.add_option("--HiSfM.min_model_size", o->min_model_size,
+                 "Components with fewer images are not reconstructed")
+      ->capture_default_str();
+  app.add_option("--colmap_path", o->colmap.colmap_path,
+                 "The colmap executable")
+      ->capture_default_str();
+}
+
+void AddLogLevelFlag(CLI::App& app, std::string* level) {
+  app.add_option("--log_level", *level,
+                 "trace, debug, info, warn, error or off")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
+  app.parse_complete_callback([level] { SetLogLevel(*level); });
+}
+
+std::vector<std::string> TakeMapperPassThrough(
+    const std::vector<std::string>& remaining) {
+  std::vector<std::string> out;
+  for (size_t i = 0; i < remaining.size(); ++i) {
+    const std::string& arg = remaining[i];
+    ThrowUnless(arg.rfind("--Mapper.", 0) == 0,
+                StrCat("unknown argument '", arg, "' (see -h)"));
+    const size_t eq = arg.find('=');
+    if (eq != std::string::npos) {
+      out.push_back(arg.substr(0, eq));
+      out.push_back(arg.substr(eq + 1));
+      continue;
+    }
+    ThrowUnless(i + 1 < remaining.size(),
+                StrCat("missing value for ", arg));
+    out.push_back(arg);
+    out.push_back(remaining[++i]);
+  }
+  return out;
+}
+
+std::string OptionsRecord(const CLI::App& app) {
+  return app.config_to_str(true, false);
+}
+
+}  // namespace hisfm

@@ -1,0 +1,36 @@
+// The verification hook of the skeleton builder: scores inter-community
+// bridges. The verify/ layer implements it (disambiguators, plug-ins).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "hisfm/util/types.h"
+
+namespace hisfm {
+
+/// Scores image pairs in [0, 1]: the probability that the pair sees the same
+/// surface (not a doppelganger). Implementations may be expensive; the
+/// skeleton builder calls them lazily and caches every score.
+class BridgeScorer {
+ public:
+  virtual ~BridgeScorer() = default;
+  /// Short name for logs and summaries.
+  virtual std::string Name() const = 0;
+  /// Scores a batch of pairs; returns one score per pair, in order.
+  virtual std::vector<double> Score(const std::vector<ImagePair>& pairs) = 0;
+  /// How many pairs the scorer prefers per call (1 = strictly lazy).
+  virtual size_t PreferredBatchSize() const { return 1; }
+};
+
+/// The default of the foundation: accepts every bridge with score 1.
+class AcceptAllScorer : public BridgeScorer {
+ public:
+  std::string Name() const override { return "none"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    return std::vector<double>(pairs.size(), 1.0);
+  }
+};
+
+}  // namespace hisfm

@@ -1,0 +1,167 @@
+#include "hisfm/graph/hierarchy.h"
+
+#include <algorithm>
+#include <map>
+
+#include "hisfm/graph/union_find.h"
+
+namespace hisfm {
+
+void HierarchyOptions::Check() const {
+  communities.Check();
+  skeleton.Check();
+  leaves.Check();
+}
+
+std::vector<ImagePair> Hierarchy::Edges() const {
+  std::vector<ImagePair> out = skeleton.Edges();
+  for (const ViewGraphEdge& e : leaf_edges) out.push_back(e.pair);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+Hierarchy BuildHierarchy(const ViewGraph& graph, BridgeScorer* scorer,
+                         const HierarchyOptions& options) {
+  return BuildHierarchy(
+      graph,
+      [scorer](const Communities&) -> std::unique_ptr<BridgeScorer> {
+        if (!scorer) return nullptr;
+        // Non-owning adapter around the caller's scorer.
+        struct Borrowed : BridgeScorer {
+          BridgeScorer* s;
+          explicit Borrowed(BridgeScorer* x) : s(x) {}
+          std::string Name() const override { return s->Name(); }
+          std::vector<double> Score(const std::vector<ImagePair>& p) override {
+            return s->Score(p);
+          }
+          size_t PreferredBatchSize() const override {
+            return s->PreferredBatchSize();
+          }
+        };
+        return std::make_unique<Borrowed>(scorer);
+      },
+      options);
+}
+
+Hierarchy BuildHierarchy(const ViewGraph& graph,
+                         const ScorerFactory& make_scorer,
+                         const HierarchyOptions& options) {
+  options.Check();
+  Hierarchy h;
+  h.communities = ComputeCommunities(graph, options.communities);
+  std::unique_ptr<BridgeScorer> scorer =
+      make_scorer ? make_scorer(h.communities) : nullptr;
+  h.skeleton =
+      BuildSkeleton(graph, h.communities, scorer.get(), options.skeleton);
+  h.leaf_edges =
+      AttachLeaves(graph, h.communities, h.skeleton, options.leaves);
+
+  const std::vector<ImagePair> edges = h.Edges();
+  const std::vector<ImagePair> skeleton_edges = h.skeleton.Edges();
+  UnionFind uf(graph.NumImages());
+  for (const ImagePair& p : edges) {
+    uf.Union(graph.IndexOf(p.image_id1), graph.IndexOf(p.image_id2));
+  }
+  std::map<size_t, HierarchyComponent> by_root;
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    const ImageId id = graph.Images()[i];
+    if (graph.IncidentEdges(i).empty()) {
+      h.isolated_images.push_back(id);
+      continue;
+    }
+    HierarchyComponent& c = by_root[uf.Find(i)];
+    c.images.push_back(id);
+    if (h.skeleton.Contains(id)) c.skeleton_images.push_back(id);
+  }
+  for (const ImagePair& p : edges) {
+    by_root[uf.Find(graph.IndexOf(p.image_id1))].edges.push_back(p);
+  }
+  for (const ImagePair& p : skeleton_edges) {
+    by_root[uf.Find(graph.IndexOf(p.image_id1))].skeleton_edges.push_back(p);
+  }
+  for (auto& [root, c] : by_root) {
+    if (c.images.size() >= 2) h.components.push_back(std::move(c));
+  }
+  std::stable_sort(h.components.begin(), h.components.end(),
+                   [](const HierarchyComponent& a, const HierarchyComponent& b) {
+                     return a.images.size() > b.images.size();
+                   });
+  return h;
+}
+
+namespace {
+
+const char* RoleName(BridgeRole role) {
+  switch (role) {
+    case BridgeRole::kTree:
+      return "tree";
+    case BridgeRole::kTopWeight:
+      return "top_weight";
+    case BridgeRole::kBackup:
+      return "backup";
+    case BridgeRole::kConnectivity:
+      return "connectivity";
+  }
+  return "tree";
+}
+
+nlohmann::json BridgeToJson(const BridgeRecord& b) {
+  return {{"image_id1", b.pair.image_id1}, {"image_id2", b.pair.image_id2},
+          {"community1", b.community1},   {"community2", b.community2},
+          {"inliers", b.weight},          {"score", b.score},
+          {"role", RoleName(b.role)},     {"tree", b.tree}};
+}
+
+nlohmann::json EdgeToJson(const ViewGraphEdge& e) {
+  return {{"image_id1", e.pair.image_id1},
+          {"image_id2", e.pair.image_id2},
+          {"inliers", e.weight}};
+}
+
+}  // namespace
+
+nlohmann::json HierarchyToJson(
+    const Hierarchy& h, const ViewGraph& graph,
+    const std::unordered_map<ImageId, std::string>& image_names) {
+  nlohmann::json images = nlohmann::json::array();
+  for (ImageId id : graph.Images()) {
+    auto it = image_names.find(id);
+    images.push_back({{"image_id", id},
+                      {"name", it == image_names.end() ? "" : it->second},
+                      {"community", h.communities.Of(id)},
+                      {"skeletal", h.skeleton.Contains(id)}});
+  }
+  nlohmann::json bridges = nlohmann::json::array();
+  for (const BridgeRecord& b : h.skeleton.bridges)
+    bridges.push_back(BridgeToJson(b));
+  nlohmann::json rejected = nlohmann::json::array();
+  for (const BridgeRecord& b : h.skeleton.rejected)
+    rejected.push_back(BridgeToJson(b));
+  nlohmann::json intra = nlohmann::json::array();
+  for (const ViewGraphEdge& e : h.skeleton.intra_edges)
+    intra.push_back(EdgeToJson(e));
+  nlohmann::json leaves = nlohmann::json::array();
+  for (const ViewGraphEdge& e : h.leaf_edges) leaves.push_back(EdgeToJson(e));
+  nlohmann::json components = nlohmann::json::array();
+  for (const HierarchyComponent& c : h.components) {
+    components.push_back({{"images", c.images},
+                          {"skeleton_images", c.skeleton_images},
+                          {"num_edges", c.edges.size()}});
+  }
+  return {{"num_images", graph.NumImages()},
+          {"num_verified_pairs", graph.NumEdges()},
+          {"num_communities", h.communities.NumCommunities()},
+          {"num_trees", h.skeleton.num_trees},
+          {"num_candidate_bridges", h.skeleton.num_candidate_bridges},
+          {"num_verified_bridges", h.skeleton.num_verified},
+          {"images", images},
+          {"skeleton_bridges", bridges},
+          {"rejected_bridges", rejected},
+          {"skeleton_intra_edges", intra},
+          {"leaf_edges", leaves},
+          {"components", components},
+          {"isolated_images", h.isolated_images}};
+}
+
+}  // namespace hisfm

@@ -1,0 +1,102 @@
+// Skeletal subgraph building by verified, greedy packing of edge-disjoint
+// spanning trees over the community graph.
+//
+// HiSfM paper, Sec. III-B and Algorithm 1: bridges are verified pairs between
+// different communities. For t = 1..K, Kruskal over the bridges by descending
+// inlier count takes a bridge only if (i) it joins two different union-find
+// sets of communities, (ii) its community pair was not used by an earlier
+// tree (the diversity set U), and (iii) the disambiguator scores it at least
+// tau. Verification is lazy: only bridges that pass (i) and (ii) are scored,
+// and each at most once. Greedy packing can fail to find K trees that exist;
+// the union is then repaired across minimum cuts (Stoer-Wagner) so that it is
+// K-edge-connected, as the paper's Tutte-Nash-Williams argument expects.
+// Optional extra bridges (top-weight ones, and backups
+// for weak links) are verified too. Skeletal images of one community are then
+// joined by intra-community edges (no verification).
+#pragma once
+
+#include <map>
+#include <vector>
+
+#include "hisfm/graph/bridge_scorer.h"
+#include "hisfm/graph/communities.h"
+#include "hisfm/graph/view_graph.h"
+
+namespace hisfm {
+
+struct SkeletonOptions {
+  /// Number of spanning trees K; 0 = max(1, round(n / images_per_tree)).
+  int num_trees = 0;
+  /// Images per tree for the automatic K (the paper: one tree per 300).
+  int images_per_tree = 300;
+  /// Minimum verifier score for a bridge to be taken (tau).
+  double verify_threshold = 0.5;
+  /// Extra top-weight bridges added after the trees (verified, each on a
+  /// community pair not used yet).
+  int num_top_bridges = 0;
+  /// For every tree bridge with fewer than weak_link_max_inliers inliers, add
+  /// up to this many verified backup bridges between the same two
+  /// communities.
+  int num_backup_bridges = 1;
+  /// Inlier count below which a tree bridge counts as a weak link.
+  int weak_link_max_inliers = 50;
+  /// Upper bound on pairs sent to the scorer at once; the builder asks for
+  /// min(this, scorer's preferred batch size). Batching scores, ahead of
+  /// time, the next bridges Kruskal would take if all before them passed.
+  int max_verify_batch_size = 64;
+  /// When greedy packing leaves the trees' union less than K-edge-connected
+  /// (greedy Kruskal can miss a packing that exists), add the heaviest
+  /// verified bridges across each deficient minimum cut until every
+  /// component of the community graph is K-edge-connected or no bridge
+  /// across the cut passes verification.
+  bool restore_connectivity = true;
+
+  void Check() const;
+  /// K for a graph of `num_images` images.
+  int NumTreesFor(size_t num_images) const;
+};
+
+/// Why a bridge is in the skeleton.
+enum class BridgeRole { kTree, kTopWeight, kBackup, kConnectivity };
+
+/// A bridge that was scored, with its outcome.
+struct BridgeRecord {
+  ImagePair pair;
+  CommunityId community1 = kInvalidCommunityId;
+  CommunityId community2 = kInvalidCommunityId;
+  uint32_t weight = 0;
+  double score = 1.0;
+  bool accepted = false;
+  BridgeRole role = BridgeRole::kTree;
+  /// Tree index (0-based) for kTree bridges, -1 otherwise.
+  int tree = -1;
+};
+
+/// The skeletal subgraph G_s = (V_s, E_s).
+struct Skeleton {
+  int num_trees = 0;
+  /// Bridges taken into the skeleton, in the order they were taken.
+  std::vector<BridgeRecord> bridges;
+  /// Bridges the verifier rejected (each once).
+  std::vector<BridgeRecord> rejected;
+  /// Intra-community edges joining the skeletal images of each community.
+  std::vector<ViewGraphEdge> intra_edges;
+  /// V_s, sorted.
+  std::vector<ImageId> images;
+  /// Number of candidate bridges (verified pairs across communities).
+  size_t num_candidate_bridges = 0;
+  /// Number of pairs scored by the verifier (each at most once).
+  size_t num_verified = 0;
+  /// Number of calls into the scorer (batches).
+  size_t num_scorer_calls = 0;
+
+  /// E_s: bridges and intra-community edges, as pairs.
+  std::vector<ImagePair> Edges() const;
+  bool Contains(ImageId id) const;
+};
+
+/// Builds the skeleton. `scorer` may be null (every bridge accepted).
+Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
+                       BridgeScorer* scorer, const SkeletonOptions& options);
+
+}  // namespace hisfm

@@ -1,0 +1,366 @@
+#include "hisfm/graph/skeleton.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <set>
+
+#include "hisfm/graph/hierarchy.h"
+#include "hisfm/graph/min_cut.h"
+#include "hisfm/graph/union_find.h"
+
+namespace hisfm {
+namespace {
+
+// `num_clusters` chains of `cluster_size` images with strong, distinct
+// internal weights (top-1 communities are the chains, or parts of them), plus
+// random weaker edges between clusters.
+ViewGraph ClusteredGraph(int num_clusters, int cluster_size, double density,
+                         uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  std::uniform_int_distribution<uint32_t> weak(15, 150);
+  std::vector<ImageId> images;
+  std::vector<ViewGraphEdge> edges;
+  auto id = [&](int c, int i) { return ImageId(c * cluster_size + i + 1); };
+  for (int c = 0; c < num_clusters; ++c) {
+    for (int i = 0; i < cluster_size; ++i) {
+      images.push_back(id(c, i));
+      if (i > 0) edges.push_back({ImagePair(id(c, i - 1), id(c, i)),
+                                  uint32_t(1000 + 7 * i + 13 * c)});
+    }
+  }
+  for (int a = 0; a < num_clusters; ++a)
+    for (int b = a + 1; b < num_clusters; ++b)
+      for (int i = 0; i < cluster_size; ++i)
+        for (int j = 0; j < cluster_size; ++j)
+          if (u(rng) < density)
+            edges.push_back({ImagePair(id(a, i), id(b, j)), weak(rng)});
+  return ViewGraph::FromEdges(images, edges);
+}
+
+// Records every scored pair; rejects the pairs in `reject`.
+class RecordingScorer : public BridgeScorer {
+ public:
+  std::set<ImagePair> reject;
+  std::vector<ImagePair> calls;
+  size_t batch = 1;
+  std::string Name() const override { return "recording"; }
+  size_t PreferredBatchSize() const override { return batch; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    std::vector<double> s;
+    for (const ImagePair& p : pairs) {
+      calls.push_back(p);
+      s.push_back(reject.count(p) ? 0.1 : 0.9);
+    }
+    return s;
+  }
+};
+
+using CommunityPair = std::pair<CommunityId, CommunityId>;
+CommunityPair Kappa(const BridgeRecord& b) {
+  return {std::min(b.community1, b.community2),
+          std::max(b.community1, b.community2)};
+}
+
+// Minimum cut of a small multigraph over `n` vertices, by enumerating all
+// bipartitions.
+size_t BruteForceMinCut(size_t n, const std::vector<CommunityPair>& edges) {
+  size_t best = edges.size() + 1;
+  for (uint64_t mask = 1; mask + 1 < (uint64_t(1) << n); ++mask) {
+    if (!(mask & 1)) continue;  // Each cut once.
+    size_t cut = 0;
+    for (const auto& [a, b] : edges) cut += ((mask >> a) & 1) != ((mask >> b) & 1);
+    best = std::min(best, cut);
+  }
+  return best;
+}
+
+TEST(Skeleton, TreesAreDisjointForestsOverCommunities) {
+  for (uint32_t seed = 0; seed < 10; ++seed) {
+    const ViewGraph g = ClusteredGraph(8, 5, 0.2, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    SkeletonOptions options;
+    options.num_trees = 3;
+    options.num_backup_bridges = 0;
+    const Skeleton s = BuildSkeleton(g, c, nullptr, options);
+    std::map<int, std::vector<CommunityPair>> trees;
+    std::map<CommunityPair, int> owner;
+    for (const BridgeRecord& b : s.bridges) {
+      ASSERT_EQ(b.role, BridgeRole::kTree);
+      ASSERT_NE(b.community1, b.community2);
+      trees[b.tree].push_back(Kappa(b));
+      auto [it, inserted] = owner.emplace(Kappa(b), b.tree);
+      EXPECT_TRUE(inserted) << "community pair used by trees " << it->second
+                            << " and " << b.tree;
+    }
+    for (const auto& [t, edges] : trees) {
+      UnionFind uf(c.NumCommunities());
+      for (const auto& [a, b] : edges) {
+        EXPECT_TRUE(uf.Union(a, b)) << "tree " << t << " has a cycle";
+      }
+    }
+  }
+}
+
+TEST(Skeleton, KTreesGiveKEdgeConnectivity) {
+  for (uint32_t seed = 0; seed < 10; ++seed) {
+    // Dense inter-cluster links: the community graph admits 3 disjoint trees.
+    const ViewGraph g = ClusteredGraph(7, 4, 0.5, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    ASSERT_LE(c.NumCommunities(), 16u);
+    SkeletonOptions options;
+    options.num_trees = 3;
+    options.num_backup_bridges = 0;
+    const Skeleton s = BuildSkeleton(g, c, nullptr, options);
+    std::vector<CommunityPair> edges, all_pairs;
+    for (const BridgeRecord& b : s.bridges) edges.push_back(Kappa(b));
+    for (const ViewGraphEdge& e : g.Edges()) {
+      CommunityId a = c.Of(e.pair.image_id1), b = c.Of(e.pair.image_id2);
+      if (a != b) all_pairs.push_back({std::min(a, b), std::max(a, b)});
+    }
+    std::sort(all_pairs.begin(), all_pairs.end());
+    all_pairs.erase(std::unique(all_pairs.begin(), all_pairs.end()),
+                    all_pairs.end());
+    // Necessary condition (Nash-Williams) for 3 disjoint spanning trees on
+    // the simple community graph; the generated graphs are dense enough.
+    ASSERT_GE(BruteForceMinCut(c.NumCommunities(), all_pairs), 6u);
+    EXPECT_GE(BruteForceMinCut(c.NumCommunities(), edges), 3u)
+        << "seed " << seed;
+    // Without the repair, greedy packing alone may fall short, but each tree
+    // stays a forest and the first tree spans.
+    options.restore_connectivity = false;
+    const Skeleton greedy = BuildSkeleton(g, c, nullptr, options);
+    size_t first_tree = 0;
+    for (const BridgeRecord& b : greedy.bridges) first_tree += b.tree == 0;
+    EXPECT_EQ(first_tree, c.NumCommunities() - 1);
+  }
+}
+
+TEST(Skeleton, SkeletonIsConnectedInsideEveryCommunity) {
+  for (uint32_t seed = 0; seed < 10; ++seed) {
+    const ViewGraph g = ClusteredGraph(6, 8, 0.1, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    SkeletonOptions options;
+    options.num_trees = 2;
+    const Skeleton s = BuildSkeleton(g, c, nullptr, options);
+    std::map<ImageId, size_t> local;
+    for (size_t i = 0; i < s.images.size(); ++i) local[s.images[i]] = i;
+    UnionFind uf(s.images.size());
+    for (const ViewGraphEdge& e : s.intra_edges) {
+      ASSERT_EQ(c.Of(e.pair.image_id1), c.Of(e.pair.image_id2));
+      uf.Union(local.at(e.pair.image_id1), local.at(e.pair.image_id2));
+    }
+    std::map<CommunityId, std::set<size_t>> roots;
+    for (ImageId id : s.images) roots[c.Of(id)].insert(uf.Find(local[id]));
+    for (const auto& [community, r] : roots) {
+      EXPECT_EQ(r.size(), 1u) << "community " << community << " seed " << seed;
+    }
+    for (const BridgeRecord& b : s.bridges) {
+      EXPECT_TRUE(s.Contains(b.pair.image_id1));
+      EXPECT_TRUE(s.Contains(b.pair.image_id2));
+    }
+  }
+}
+
+// Reference Kruskal with verification: the set of bridges passing the union-
+// find and diversity tests when they are met, in order.
+std::vector<ImagePair> ReferenceScoredBridges(const ViewGraph& g,
+                                              const Communities& c, int K,
+                                              const std::set<ImagePair>& reject) {
+  std::vector<ViewGraphEdge> bridges;
+  for (const ViewGraphEdge& e : g.Edges())
+    if (c.Of(e.pair.image_id1) != c.Of(e.pair.image_id2)) bridges.push_back(e);
+  std::stable_sort(bridges.begin(), bridges.end(),
+                   [](const auto& a, const auto& b) { return a.weight > b.weight; });
+  std::set<CommunityPair> used;
+  std::vector<ImagePair> scored;
+  std::set<ImagePair> scored_set;
+  for (int t = 0; t < K; ++t) {
+    UnionFind uf(c.NumCommunities());
+    std::set<CommunityPair> mine;
+    for (const auto& e : bridges) {
+      CommunityId a = c.Of(e.pair.image_id1), b = c.Of(e.pair.image_id2);
+      CommunityPair kappa(std::min(a, b), std::max(a, b));
+      if (used.count(kappa) || uf.Connected(a, b)) continue;
+      if (scored_set.insert(e.pair).second) scored.push_back(e.pair);
+      if (reject.count(e.pair)) continue;
+      uf.Union(a, b);
+      mine.insert(kappa);
+    }
+    used.insert(mine.begin(), mine.end());
+  }
+  return scored;
+}
+
+TEST(Skeleton, VerifiesOnlyBridgesKruskalWouldTakeOnceEach) {
+  for (uint32_t seed = 0; seed < 10; ++seed) {
+    const ViewGraph g = ClusteredGraph(8, 4, 0.3, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    RecordingScorer scorer;
+    // Reject every third bridge met.
+    std::vector<ImagePair> first = ReferenceScoredBridges(g, c, 2, {});
+    for (size_t i = 0; i < first.size(); i += 3) scorer.reject.insert(first[i]);
+    SkeletonOptions options;
+    options.num_trees = 2;
+    options.num_backup_bridges = 0;
+    const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+    const std::vector<ImagePair> expected =
+        ReferenceScoredBridges(g, c, 2, scorer.reject);
+    EXPECT_EQ(scorer.calls, expected) << "seed " << seed;
+    EXPECT_EQ(s.num_verified, expected.size());
+    EXPECT_LT(s.num_verified, s.num_candidate_bridges);
+    for (const BridgeRecord& b : s.bridges) {
+      EXPECT_FALSE(scorer.reject.count(b.pair));
+    }
+    for (const BridgeRecord& b : s.rejected) {
+      EXPECT_TRUE(scorer.reject.count(b.pair));
+      EXPECT_LT(b.score, options.verify_threshold);
+    }
+    // A rejected bridge is replaced by the next candidate: trees still span.
+    std::map<int, size_t> tree_size;
+    for (const BridgeRecord& b : s.bridges) ++tree_size[b.tree];
+    EXPECT_EQ(tree_size[0], c.NumCommunities() - 1);
+  }
+}
+
+TEST(Skeleton, BatchedScoringMakesTheSameDecisions) {
+  for (uint32_t seed = 0; seed < 5; ++seed) {
+    const ViewGraph g = ClusteredGraph(8, 4, 0.3, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    RecordingScorer lazy, batched;
+    std::vector<ImagePair> first = ReferenceScoredBridges(g, c, 2, {});
+    for (size_t i = 0; i < first.size(); i += 2) {
+      lazy.reject.insert(first[i]);
+      batched.reject.insert(first[i]);
+    }
+    batched.batch = 8;
+    SkeletonOptions options;
+    options.num_trees = 2;
+    const Skeleton a = BuildSkeleton(g, c, &lazy, options);
+    const Skeleton b = BuildSkeleton(g, c, &batched, options);
+    EXPECT_EQ(a.Edges(), b.Edges());
+    std::set<ImagePair> unique(batched.calls.begin(), batched.calls.end());
+    EXPECT_EQ(unique.size(), batched.calls.size()) << "a pair scored twice";
+  }
+}
+
+TEST(MinCut, MatchesBruteForce) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 50; ++trial) {
+    const size_t n = 2 + rng() % 9;
+    std::vector<std::pair<size_t, size_t>> edges;
+    std::vector<CommunityPair> as_pairs;
+    for (size_t e = 0; e < 3 * n; ++e) {
+      size_t a = rng() % n, b = rng() % n;
+      if (a == b) continue;
+      edges.push_back({a, b});
+      as_pairs.push_back({CommunityId(a), CommunityId(b)});
+    }
+    const MinCut cut = GlobalMinCut(n, edges);
+    EXPECT_EQ(cut.value, BruteForceMinCut(n, as_pairs)) << "trial " << trial;
+    std::set<size_t> side(cut.side.begin(), cut.side.end());
+    size_t crossing = 0;
+    for (const auto& [a, b] : edges) crossing += side.count(a) != side.count(b);
+    EXPECT_EQ(crossing, cut.value);
+  }
+}
+
+TEST(Skeleton, AutomaticNumberOfTrees) {
+  SkeletonOptions options;
+  EXPECT_EQ(options.NumTreesFor(64), 1);
+  EXPECT_EQ(options.NumTreesFor(449), 1);
+  EXPECT_EQ(options.NumTreesFor(451), 2);
+  EXPECT_EQ(options.NumTreesFor(3000), 10);
+  options.num_trees = 4;
+  EXPECT_EQ(options.NumTreesFor(64), 4);
+}
+
+TEST(Skeleton, BackupBridgesForWeakLinks) {
+  // Two communities {1,2} and {3,4} joined by weak bridges only.
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4}, {{ImagePair(1, 2), 500},
+                     {ImagePair(3, 4), 500},
+                     {ImagePair(1, 3), 40},
+                     {ImagePair(2, 4), 30},
+                     {ImagePair(2, 3), 20}});
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options;
+  options.num_backup_bridges = 1;
+  options.weak_link_max_inliers = 50;
+  const Skeleton s = BuildSkeleton(g, c, nullptr, options);
+  ASSERT_EQ(s.bridges.size(), 2u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(1, 3));
+  EXPECT_EQ(s.bridges[1].pair, ImagePair(2, 4));
+  EXPECT_EQ(s.bridges[1].role, BridgeRole::kBackup);
+}
+
+TEST(Hierarchy, EveryLeafIsAttachedToItsScaffold) {
+  for (uint32_t seed = 0; seed < 10; ++seed) {
+    const ViewGraph g = ClusteredGraph(6, 8, 0.1, seed);
+    HierarchyOptions options;
+    const Hierarchy h = BuildHierarchy(g, nullptr, options);
+    const auto& c = h.communities;
+    std::set<ImageId> attached;
+    for (const ViewGraphEdge& e : h.leaf_edges) {
+      EXPECT_EQ(c.Of(e.pair.image_id1), c.Of(e.pair.image_id2));
+      EXPECT_TRUE(!h.skeleton.Contains(e.pair.image_id1) ||
+                  !h.skeleton.Contains(e.pair.image_id2));
+      attached.insert(e.pair.image_id1);
+      attached.insert(e.pair.image_id2);
+    }
+    ASSERT_EQ(h.components.size(), 1u);
+    const HierarchyComponent& comp = h.components[0];
+    EXPECT_EQ(comp.images.size(), g.NumImages());
+    for (ImageId id : g.Images()) {
+      if (!h.skeleton.Contains(id)) EXPECT_TRUE(attached.count(id)) << id;
+    }
+    EXPECT_LT(h.Edges().size(), g.NumEdges());
+  }
+}
+
+TEST(Hierarchy, DisconnectedGraphGivesOneComponentEach) {
+  // Two separate groups and one isolated image.
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6, 7, 8, 9},
+      {{ImagePair(1, 2), 300}, {ImagePair(3, 4), 300}, {ImagePair(2, 3), 50},
+       {ImagePair(1, 4), 40},  {ImagePair(5, 6), 300}, {ImagePair(7, 8), 280},
+       {ImagePair(6, 7), 60}});
+  const Hierarchy h = BuildHierarchy(g, nullptr, HierarchyOptions());
+  ASSERT_EQ(h.components.size(), 2u);
+  EXPECT_EQ(h.components[0].images.size(), 4u);
+  EXPECT_EQ(h.components[1].images.size(), 4u);
+  EXPECT_EQ(h.isolated_images, std::vector<ImageId>{9});
+  for (const HierarchyComponent& comp : h.components) {
+    EXPECT_FALSE(comp.skeleton_images.empty());
+  }
+}
+
+TEST(Hierarchy, SingleCommunityIsItsOwnScaffold) {
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3}, {{ImagePair(1, 2), 300}, {ImagePair(2, 3), 200},
+                  {ImagePair(1, 3), 100}});
+  const Hierarchy h = BuildHierarchy(g, nullptr, HierarchyOptions());
+  EXPECT_EQ(h.communities.NumCommunities(), 1u);
+  EXPECT_TRUE(h.skeleton.bridges.empty());
+  ASSERT_EQ(h.components.size(), 1u);
+  EXPECT_EQ(h.components[0].skeleton_images.size(), 3u);
+}
+
+TEST(Hierarchy, RejectedBridgesCanLeaveAForest) {
+  // The only bridge between the two communities is rejected.
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4}, {{ImagePair(1, 2), 300}, {ImagePair(3, 4), 300},
+                     {ImagePair(2, 3), 50}});
+  RecordingScorer scorer;
+  scorer.reject.insert(ImagePair(2, 3));
+  const Hierarchy h = BuildHierarchy(g, &scorer, HierarchyOptions());
+  EXPECT_TRUE(h.skeleton.bridges.empty());
+  ASSERT_EQ(h.skeleton.rejected.size(), 1u);
+  EXPECT_EQ(h.components.size(), 2u);
+}
+
+}  // namespace
+}  // namespace hisfm

@@ -1,0 +1,93 @@
+#include "hisfm/graph/view_graph.h"
+
+#include <algorithm>
+#include <map>
+
+#include "hisfm/graph/union_find.h"
+
+namespace hisfm {
+
+ViewGraph ViewGraph::FromDatabase(const Database& database,
+                                  uint32_t min_num_matches) {
+  std::vector<ImageId> images;
+  for (const DatabaseImage& im : database.ReadImages()) {
+    images.push_back(im.image_id);
+  }
+  std::vector<ViewGraphEdge> edges;
+  for (const VerifiedPair& p : database.ReadVerifiedPairs(min_num_matches)) {
+    edges.push_back({p.pair, p.num_inliers});
+  }
+  return FromEdges(std::move(images), edges);
+}
+
+ViewGraph ViewGraph::FromEdges(std::vector<ImageId> images,
+                               const std::vector<ViewGraphEdge>& edges) {
+  ViewGraph g;
+  std::sort(images.begin(), images.end());
+  images.erase(std::unique(images.begin(), images.end()), images.end());
+  g.images_ = std::move(images);
+  g.index_.reserve(g.images_.size());
+  for (size_t i = 0; i < g.images_.size(); ++i) g.index_[g.images_[i]] = i;
+  g.edges_.reserve(edges.size());
+  for (const ViewGraphEdge& e : edges) {
+    if (e.pair.image_id1 == e.pair.image_id2) continue;
+    if (!g.HasImage(e.pair.image_id1) || !g.HasImage(e.pair.image_id2))
+      continue;
+    g.edges_.push_back({ImagePair(e.pair.image_id1, e.pair.image_id2),
+                        e.weight});
+  }
+  std::sort(g.edges_.begin(), g.edges_.end(),
+            [](const ViewGraphEdge& a, const ViewGraphEdge& b) {
+              return a.pair < b.pair || (a.pair == b.pair && a.weight > b.weight);
+            });
+  g.edges_.erase(std::unique(g.edges_.begin(), g.edges_.end(),
+                             [](const ViewGraphEdge& a, const ViewGraphEdge& b) {
+                               return a.pair == b.pair;
+                             }),
+                 g.edges_.end());
+  g.BuildAdjacency();
+  return g;
+}
+
+void ViewGraph::BuildAdjacency() {
+  adjacency_.assign(images_.size(), {});
+  std::vector<size_t> degree(images_.size(), 0);
+  for (const ViewGraphEdge& e : edges_) {
+    ++degree[index_[e.pair.image_id1]];
+    ++degree[index_[e.pair.image_id2]];
+  }
+  for (size_t i = 0; i < images_.size(); ++i) adjacency_[i].reserve(degree[i]);
+  for (size_t k = 0; k < edges_.size(); ++k) {
+    adjacency_[index_[edges_[k].pair.image_id1]].push_back(k);
+    adjacency_[index_[edges_[k].pair.image_id2]].push_back(k);
+  }
+}
+
+uint32_t ViewGraph::Weight(ImageId a, ImageId b) const {
+  auto it = index_.find(a);
+  if (it == index_.end() || !HasImage(b)) return 0;
+  for (size_t e : adjacency_[it->second]) {
+    if (OtherEnd(e, a) == b) return edges_[e].weight;
+  }
+  return 0;
+}
+
+std::vector<std::vector<ImageId>> ViewGraph::ConnectedComponents() const {
+  UnionFind uf(images_.size());
+  for (const ViewGraphEdge& e : edges_) {
+    uf.Union(index_.at(e.pair.image_id1), index_.at(e.pair.image_id2));
+  }
+  std::map<size_t, std::vector<ImageId>> groups;
+  for (size_t i = 0; i < images_.size(); ++i) {
+    groups[uf.Find(i)].push_back(images_[i]);
+  }
+  std::vector<std::vector<ImageId>> out;
+  for (auto& [root, members] : groups) out.push_back(std::move(members));
+  std::stable_sort(out.begin(), out.end(),
+                   [](const auto& a, const auto& b) {
+                     return a.size() > b.size();
+                   });
+  return out;
+}
+
+}  // namespace hisfm

@@ -1,0 +1,66 @@
+// The view graph: images as vertices, verified pairs as edges weighted by
+// their number of inlier matches (w_ij in the HiSfM paper, Sec. III-A).
+#pragma once
+
+#include <unordered_map>
+#include <vector>
+
+#include "hisfm/io/database.h"
+#include "hisfm/util/types.h"
+
+namespace hisfm {
+
+/// One verified pair with its weight (number of inliers).
+struct ViewGraphEdge {
+  ImagePair pair;
+  uint32_t weight = 0;
+};
+
+/// Undirected weighted graph over images. Images are stored in ascending id
+/// order and addressed by a dense index for fast adjacency.
+class ViewGraph {
+ public:
+  ViewGraph() = default;
+  /// Builds the graph from every image of the database and every verified pair
+  /// with at least `min_num_matches` inliers.
+  static ViewGraph FromDatabase(const Database& database,
+                                uint32_t min_num_matches);
+  /// Builds a graph from explicit images and edges (duplicates are merged,
+  /// keeping the largest weight; edges to unknown images are ignored).
+  static ViewGraph FromEdges(std::vector<ImageId> images,
+                             const std::vector<ViewGraphEdge>& edges);
+
+  size_t NumImages() const { return images_.size(); }
+  size_t NumEdges() const { return edges_.size(); }
+  /// Image ids in ascending order.
+  const std::vector<ImageId>& Images() const { return images_; }
+  /// All edges, sorted by pair.
+  const std::vector<ViewGraphEdge>& Edges() const { return edges_; }
+  bool HasImage(ImageId id) const { return index_.count(id) > 0; }
+  /// Dense index of an image in Images().
+  size_t IndexOf(ImageId id) const { return index_.at(id); }
+  /// Edge indices incident to the image with dense index `i`.
+  const std::vector<size_t>& IncidentEdges(size_t i) const {
+    return adjacency_[i];
+  }
+  /// The other end of edge `e` seen from image `id`.
+  ImageId OtherEnd(size_t e, ImageId id) const {
+    const ImagePair& p = edges_[e].pair;
+    return p.image_id1 == id ? p.image_id2 : p.image_id1;
+  }
+  /// Weight of the edge between a and b, 0 if there is none.
+  uint32_t Weight(ImageId a, ImageId b) const;
+  /// Connected components (each sorted), largest first; isolated images form
+  /// singleton components.
+  std::vector<std::vector<ImageId>> ConnectedComponents() const;
+
+ private:
+  void BuildAdjacency();
+
+  std::vector<ImageId> images_;
+  std::unordered_map<ImageId, size_t> index_;
+  std::vector<ViewGraphEdge> edges_;
+  std::vector<std::vector<size_t>> adjacency_;
+};
+
+}  // namespace hisfm

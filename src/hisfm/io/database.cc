@@ -1,0 +1,316 @@
+#include "hisfm/io/database.h"
+
+#include <sqlite3.h>
+
+#include <cstring>
+#include <filesystem>
+#include <random>
+
+#include "hisfm/io/sqlite_util.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+
+namespace hisfm {
+namespace {
+
+template <typename T>
+std::vector<T> ReadBlob(sqlite3_stmt* stmt, int col) {
+  const void* data = sqlite3_column_blob(stmt, col);
+  const int bytes = sqlite3_column_bytes(stmt, col);
+  std::vector<T> out(data ? bytes / sizeof(T) : 0);
+  if (!out.empty()) std::memcpy(out.data(), data, out.size() * sizeof(T));
+  return out;
+}
+
+Eigen::Matrix3d ReadMatrix3Blob(sqlite3_stmt* stmt, int col) {
+  const std::vector<double> v = ReadBlob<double>(stmt, col);
+  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+  if (v.size() == 9) {
+    // Stored row-major.
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) m(r, c) = v[3 * r + c];
+  }
+  return m;
+}
+
+std::vector<FeatureMatch> ReadMatchesBlob(sqlite3_stmt* stmt, int rows_col,
+                                          int data_col) {
+  const int rows = sqlite3_column_int(stmt, rows_col);
+  const std::vector<uint32_t> v = ReadBlob<uint32_t>(stmt, data_col);
+  ThrowUnless(v.size() == static_cast<size_t>(rows) * 2,
+              "database error: corrupt match blob");
+  std::vector<FeatureMatch> out(rows);
+  for (int i = 0; i < rows; ++i) out[i] = {v[2 * i], v[2 * i + 1]};
+  return out;
+}
+
+}  // namespace
+
+Database::Database(const std::string& path) : path_(path) {
+  CheckFileReadable(path, "database");
+  const int rc =
+      sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr);
+  if (rc != SQLITE_OK) {
+    const std::string msg = db_ ? sqlite3_errmsg(db_) : "cannot open";
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw Error(StrCat("cannot open database ", path, ": ", msg));
+  }
+  sqlite3_busy_timeout(db_, 5000);
+  // A file that is not SQLite fails here with "file is not a database".
+  size_t num_tables = 0;
+  try {
+    SqliteStatement stmt(
+        db_,
+        "SELECT count(*) FROM sqlite_master WHERE type='table' AND name IN "
+        "('cameras','images','keypoints','two_view_geometries')");
+    if (stmt.Step()) num_tables = sqlite3_column_int(stmt.get(), 0);
+  } catch (const Error&) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw Error(StrCat("not a COLMAP database (not SQLite): ", path));
+  }
+  if (num_tables != 4) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw Error(StrCat("not a COLMAP database (missing cameras, images, "
+                       "keypoints or two_view_geometries table): ",
+                       path));
+  }
+}
+
+Database::~Database() {
+  if (db_) sqlite3_close(db_);
+}
+
+std::vector<DatabaseCamera> Database::ReadCameras() const {
+  SqliteStatement stmt(db_,
+                       "SELECT camera_id, model, width, height, params, "
+                       "prior_focal_length FROM cameras ORDER BY camera_id");
+  std::vector<DatabaseCamera> cameras;
+  while (stmt.Step()) {
+    DatabaseCamera c;
+    c.camera_id = sqlite3_column_int64(stmt.get(), 0);
+    c.model_id = sqlite3_column_int(stmt.get(), 1);
+    c.width = sqlite3_column_int64(stmt.get(), 2);
+    c.height = sqlite3_column_int64(stmt.get(), 3);
+    c.params = ReadBlob<double>(stmt.get(), 4);
+    c.prior_focal_length = sqlite3_column_int(stmt.get(), 5) != 0;
+    cameras.push_back(std::move(c));
+  }
+  return cameras;
+}
+
+std::vector<DatabaseImage> Database::ReadImages() const {
+  SqliteStatement stmt(
+      db_, "SELECT image_id, name, camera_id FROM images ORDER BY image_id");
+  std::vector<DatabaseImage> images;
+  while (stmt.Step()) {
+    DatabaseImage im;
+    im.image_id = sqlite3_column_int64(stmt.get(), 0);
+    const unsigned char* name = sqlite3_column_text(stmt.get(), 1);
+    im.name = name ? reinterpret_cast<const char*>(name) : "";
+    im.camera_id = sqlite3_column_int64(stmt.get(), 2);
+    images.push_back(std::move(im));
+  }
+  return images;
+}
+
+size_t Database::NumVerifiedPairs(uint32_t min_num_inliers) const {
+  SqliteStatement stmt(
+      db_, "SELECT count(*) FROM two_view_geometries WHERE rows >= ?");
+  sqlite3_bind_int64(stmt.get(), 1, std::max<uint32_t>(1, min_num_inliers));
+  return stmt.Step() ? sqlite3_column_int64(stmt.get(), 0) : 0;
+}
+
+std::vector<VerifiedPair> Database::ReadVerifiedPairs(
+    uint32_t min_num_inliers) const {
+  SqliteStatement stmt(db_,
+                       "SELECT pair_id, rows, config FROM two_view_geometries "
+                       "WHERE rows >= ? ORDER BY pair_id");
+  sqlite3_bind_int64(stmt.get(), 1, std::max<uint32_t>(1, min_num_inliers));
+  std::vector<VerifiedPair> pairs;
+  while (stmt.Step()) {
+    VerifiedPair p;
+    p.pair = PairIdToImagePair(sqlite3_column_int64(stmt.get(), 0));
+    p.num_inliers = sqlite3_column_int(stmt.get(), 1);
+    p.config = sqlite3_column_int(stmt.get(), 2);
+    pairs.push_back(p);
+  }
+  return pairs;
+}
+
+TwoViewGeometry Database::ReadTwoViewGeometry(ImageId a, ImageId b) const {
+  SqliteStatement stmt(db_,
+                       "SELECT rows, data, config, F, E, H, qvec, tvec FROM "
+                       "two_view_geometries WHERE pair_id = ?");
+  sqlite3_bind_int64(stmt.get(), 1, ImagePairToPairId(a, b));
+  ThrowUnless(stmt.Step(), StrCat("no two-view geometry for images ", a,
+                                  " and ", b, " in ", path_));
+  TwoViewGeometry g;
+  g.pair = ImagePair(a, b);
+  g.inlier_matches = ReadMatchesBlob(stmt.get(), 0, 1);
+  g.config = sqlite3_column_int(stmt.get(), 2);
+  g.F = ReadMatrix3Blob(stmt.get(), 3);
+  g.E = ReadMatrix3Blob(stmt.get(), 4);
+  g.H = ReadMatrix3Blob(stmt.get(), 5);
+  const std::vector<double> q = ReadBlob<double>(stmt.get(), 6);
+  const std::vector<double> t = ReadBlob<double>(stmt.get(), 7);
+  if (q.size() == 4) g.qvec = Eigen::Vector4d(q[0], q[1], q[2], q[3]);
+  if (t.size() == 3) g.tvec = Eigen::Vector3d(t[0], t[1], t[2]);
+  return g;
+}
+
+std::vector<FeatureMatch> Database::ReadMatches(ImageId a, ImageId b) const {
+  SqliteStatement stmt(db_,
+                       "SELECT rows, data FROM matches WHERE pair_id = ?");
+  sqlite3_bind_int64(stmt.get(), 1, ImagePairToPairId(a, b));
+  if (!stmt.Step()) return {};
+  return ReadMatchesBlob(stmt.get(), 0, 1);
+}
+
+Keypoints Database::ReadKeypoints(ImageId image_id) const {
+  SqliteStatement stmt(
+      db_, "SELECT rows, cols, data FROM keypoints WHERE image_id = ?");
+  sqlite3_bind_int64(stmt.get(), 1, image_id);
+  if (!stmt.Step()) return Keypoints();
+  const int rows = sqlite3_column_int(stmt.get(), 0);
+  const int cols = sqlite3_column_int(stmt.get(), 1);
+  const std::vector<float> v = ReadBlob<float>(stmt.get(), 2);
+  ThrowUnless(cols >= 2 && v.size() == static_cast<size_t>(rows) * cols,
+              StrCat("database error: corrupt keypoints of image ", image_id));
+  Keypoints kp(rows, 2);
+  for (int i = 0; i < rows; ++i) {
+    kp(i, 0) = v[i * cols];
+    kp(i, 1) = v[i * cols + 1];
+  }
+  return kp;
+}
+
+Descriptors Database::ReadDescriptors(ImageId image_id) const {
+  SqliteStatement stmt(
+      db_, "SELECT rows, cols, data FROM descriptors WHERE image_id = ?");
+  sqlite3_bind_int64(stmt.get(), 1, image_id);
+  if (!stmt.Step()) return Descriptors();
+  const int rows = sqlite3_column_int(stmt.get(), 0);
+  const int cols = sqlite3_column_int(stmt.get(), 1);
+  const std::vector<uint8_t> v = ReadBlob<uint8_t>(stmt.get(), 2);
+  ThrowUnless(v.size() == static_cast<size_t>(rows) * cols,
+              StrCat("database error: corrupt descriptors of image ",
+                     image_id));
+  Descriptors d(rows, cols);
+  if (!v.empty()) std::memcpy(d.data(), v.data(), v.size());
+  return d;
+}
+
+const std::vector<std::string>& ColmapSchemaStatements() {
+  static const std::vector<std::string> kStatements = {
+      "CREATE TABLE IF NOT EXISTS cameras   (camera_id            INTEGER  "
+      "PRIMARY KEY AUTOINCREMENT  NOT NULL,    model                INTEGER  "
+      "                           NOT NULL,    width                INTEGER  "
+      "                           NOT NULL,    height               INTEGER  "
+      "                           NOT NULL,    params               BLOB,    "
+      "prior_focal_length   INTEGER                             NOT NULL);",
+      "CREATE TABLE IF NOT EXISTS images   (image_id   INTEGER  PRIMARY KEY "
+      "AUTOINCREMENT  NOT NULL,    name       TEXT                           "
+      "     NOT NULL UNIQUE,    camera_id  INTEGER                           "
+      "  NOT NULL,    prior_qw   REAL,    prior_qx   REAL,    prior_qy   "
+      "REAL,    prior_qz   REAL,    prior_tx   REAL,    prior_ty   REAL,    "
+      "prior_tz   REAL,CONSTRAINT image_id_check CHECK(image_id >= 0 and "
+      "image_id < 2147483647),FOREIGN KEY(camera_id) REFERENCES "
+      "cameras(camera_id));",
+      "CREATE UNIQUE INDEX IF NOT EXISTS index_name ON images(name);",
+      "CREATE TABLE IF NOT EXISTS keypoints   (image_id  INTEGER  PRIMARY KEY "
+      " NOT NULL,    rows      INTEGER               NOT NULL,    cols      "
+      "INTEGER               NOT NULL,    data      BLOB,FOREIGN "
+      "KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);",
+      "CREATE TABLE IF NOT EXISTS descriptors   (image_id  INTEGER  PRIMARY "
+      "KEY  NOT NULL,    rows      INTEGER               NOT NULL,    cols   "
+      "   INTEGER               NOT NULL,    data      BLOB,FOREIGN "
+      "KEY(image_id) REFERENCES images(image_id) ON DELETE CASCADE);",
+      "CREATE TABLE IF NOT EXISTS matches   (pair_id  INTEGER  PRIMARY KEY  "
+      "NOT NULL,    rows     INTEGER               NOT NULL,    cols     "
+      "INTEGER               NOT NULL,    data     BLOB);",
+      "CREATE TABLE IF NOT EXISTS two_view_geometries   (pair_id  INTEGER  "
+      "PRIMARY KEY  NOT NULL,    rows     INTEGER               NOT NULL,    "
+      "cols     INTEGER               NOT NULL,    data     BLOB,    config  "
+      " INTEGER               NOT NULL,    F        BLOB,    E        BLOB,  "
+      "  H        BLOB,    qvec     BLOB,    tvec     BLOB);",
+  };
+  return kStatements;
+}
+
+void WriteFilteredDatabase(const std::string& source_path,
+                           const std::string& output_path,
+                           const std::vector<ImagePair>& keep,
+                           const FilteredDatabaseOptions& options) {
+  options.Check();
+  CheckFileReadable(source_path, "database");
+  namespace fs = std::filesystem;
+  const std::string temp_path =
+      output_path + ".tmp-" + std::to_string(std::random_device()());
+  std::error_code ec;
+  fs::remove(temp_path, ec);
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(temp_path.c_str(), &db,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE |
+                          SQLITE_OPEN_URI,
+                      nullptr) != SQLITE_OK) {
+    sqlite3_close(db);
+    throw Error(StrCat("cannot create database ", output_path));
+  }
+  try {
+    for (const std::string& sql : ColmapSchemaStatements()) SqliteExec(db, sql);
+    // Attach the source read-only through a URI so it can never be written.
+    std::string uri = "file:";
+    for (char c : fs::absolute(source_path).string()) {
+      if (c == '%' || c == '?' || c == '#') {
+        char buf[4];
+        std::snprintf(buf, sizeof(buf), "%%%02X",
+                      static_cast<unsigned char>(c));
+        uri += buf;
+      } else {
+        uri += c;
+      }
+    }
+    uri += "?mode=ro";
+    SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(uri) + " AS src;");
+    SqliteExec(db, "BEGIN;");
+    SqliteExec(db, "INSERT INTO cameras SELECT * FROM src.cameras;");
+    SqliteExec(db, "INSERT INTO images SELECT * FROM src.images;");
+    SqliteExec(db, "INSERT INTO keypoints SELECT * FROM src.keypoints;");
+    if (options.copy_descriptors) {
+      SqliteExec(db, "INSERT INTO descriptors SELECT * FROM src.descriptors;");
+    }
+    SqliteExec(db, "CREATE TEMP TABLE keep_pairs (pair_id INTEGER PRIMARY KEY);");
+    {
+      SqliteStatement insert(db, "INSERT OR IGNORE INTO keep_pairs VALUES (?)");
+      for (const ImagePair& p : keep) {
+        sqlite3_bind_int64(insert.get(), 1,
+                           ImagePairToPairId(p.image_id1, p.image_id2));
+        insert.Step();
+        insert.Reset();
+      }
+    }
+    SqliteExec(db,
+               "INSERT INTO two_view_geometries SELECT * FROM "
+               "src.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM "
+               "keep_pairs);");
+    if (options.copy_matches) {
+      SqliteExec(db,
+                 "INSERT INTO matches SELECT * FROM src.matches WHERE pair_id "
+                 "IN (SELECT pair_id FROM keep_pairs);");
+    }
+    SqliteExec(db, "COMMIT;");
+    SqliteExec(db, "DETACH DATABASE src;");
+  } catch (...) {
+    sqlite3_close(db);
+    fs::remove(temp_path, ec);
+    throw;
+  }
+  sqlite3_close(db);
+  fs::rename(temp_path, output_path, ec);
+  ThrowUnless(!ec, StrCat("cannot rename ", temp_path, " to ", output_path));
+}
+
+}  // namespace hisfm

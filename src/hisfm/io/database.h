@@ -1,0 +1,153 @@
+// Read-only access to a COLMAP 3.8 database (SQLite).
+//
+// Format (COLMAP 3.8, src/base/database.cc):
+//   cameras(camera_id, model, width, height, params BLOB of float64,
+//           prior_focal_length)
+//   images(image_id, name UNIQUE, camera_id, prior_q*, prior_t*)
+//   keypoints(image_id, rows, cols, data BLOB of float32, rows x cols,
+//             row-major; cols is 2 (x, y), 4 (x, y, scale, orientation) or
+//             6 (x, y, a11, a12, a21, a22))
+//   descriptors(image_id, rows, cols=128, data BLOB of uint8)
+//   matches(pair_id, rows, cols=2, data BLOB of uint32 point2D indices)
+//   two_view_geometries(pair_id, rows, cols=2, data (inlier matches), config,
+//           F, E, H (float64 3x3, row-major), qvec (float64 w,x,y,z),
+//           tvec (float64 x,y,z))
+// pair_id is ImagePairToPairId (hisfm/util/types.h); matches are stored with
+// the first column indexing the image with the smaller id. `rows` of a
+// two_view_geometries row is its number of inliers. Keypoint coordinates use
+// COLMAP's convention: the centre of the upper-left pixel is (0.5, 0.5).
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "hisfm/util/types.h"
+
+struct sqlite3;
+
+namespace hisfm {
+
+/// A row of the `cameras` table.
+struct DatabaseCamera {
+  CameraId camera_id = kInvalidCameraId;
+  int model_id = -1;  ///< COLMAP camera model id (0 = SIMPLE_PINHOLE, ...).
+  uint64_t width = 0;
+  uint64_t height = 0;
+  std::vector<double> params;
+  bool prior_focal_length = false;
+};
+
+/// A row of the `images` table (priors are not used by HiSfM).
+struct DatabaseImage {
+  ImageId image_id = kInvalidImageId;
+  std::string name;
+  CameraId camera_id = kInvalidCameraId;
+};
+
+/// One correspondence between keypoint idx1 of the first image and keypoint
+/// idx2 of the second image of a pair.
+struct FeatureMatch {
+  Point2DIdx idx1 = 0;
+  Point2DIdx idx2 = 0;
+};
+
+/// COLMAP's TwoViewGeometry::ConfigurationType values.
+enum class TwoViewConfig : int {
+  kUndefined = 0,
+  kDegenerate = 1,
+  kCalibrated = 2,
+  kUncalibrated = 3,
+  kPlanar = 4,
+  kPanoramic = 5,
+  kPlanarOrPanoramic = 6,
+  kWatermark = 7,
+  kMultiple = 8,
+};
+
+/// Summary of a verified pair: enough to build the view graph.
+struct VerifiedPair {
+  ImagePair pair;
+  uint32_t num_inliers = 0;
+  int config = 0;
+};
+
+/// A full row of `two_view_geometries`, oriented as stored (pair.image_id1 is
+/// the smaller id; matches index its keypoints first).
+struct TwoViewGeometry {
+  ImagePair pair;
+  int config = 0;
+  std::vector<FeatureMatch> inlier_matches;
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  /// cam2_from_cam1 rotation (w, x, y, z); zero when COLMAP did not store one.
+  Eigen::Vector4d qvec = Eigen::Vector4d::Zero();
+  Eigen::Vector3d tvec = Eigen::Vector3d::Zero();
+};
+
+/// Keypoint locations of one image, one row (x, y) per keypoint.
+using Keypoints = Eigen::Matrix<float, Eigen::Dynamic, 2, Eigen::RowMajor>;
+/// SIFT descriptors of one image, one row of 128 bytes per keypoint.
+using Descriptors =
+    Eigen::Matrix<uint8_t, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// A COLMAP database opened read-only: the input is never modified. All
+/// readers throw hisfm::Error with a one-line message on failure.
+class Database {
+ public:
+  /// Opens `path` read-only and checks that it has COLMAP's tables.
+  explicit Database(const std::string& path);
+  ~Database();
+  Database(const Database&) = delete;
+  Database& operator=(const Database&) = delete;
+
+  const std::string& path() const { return path_; }
+
+  std::vector<DatabaseCamera> ReadCameras() const;
+  std::vector<DatabaseImage> ReadImages() const;
+  /// Number of rows in `two_view_geometries` with at least `min_num_inliers`.
+  size_t NumVerifiedPairs(uint32_t min_num_inliers = 1) const;
+  /// Every verified pair with at least `min_num_inliers` inliers, sorted by
+  /// pair. Reads only the pair id, row count and config (fast).
+  std::vector<VerifiedPair> ReadVerifiedPairs(uint32_t min_num_inliers) const;
+  /// The full two-view geometry of a pair; throws if the pair is absent.
+  TwoViewGeometry ReadTwoViewGeometry(ImageId a, ImageId b) const;
+  /// Raw (putative) matches of a pair, oriented like the stored pair; empty if
+  /// absent.
+  std::vector<FeatureMatch> ReadMatches(ImageId a, ImageId b) const;
+  /// Keypoint locations of an image (x, y); empty if absent.
+  Keypoints ReadKeypoints(ImageId image_id) const;
+  /// Descriptors of an image; empty if absent.
+  Descriptors ReadDescriptors(ImageId image_id) const;
+
+ private:
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+/// What WriteFilteredDatabase copies besides cameras, images and keypoints.
+struct FilteredDatabaseOptions {
+  /// Copy the descriptors table (COLMAP's mapper does not read it).
+  bool copy_descriptors = false;
+  /// Copy raw matches of the kept pairs (the mapper does not read them).
+  bool copy_matches = false;
+
+  void Check() const {}
+};
+
+/// Writes a new COLMAP database at `output_path` with the source's cameras,
+/// images and keypoints, and only the `keep` pairs of two_view_geometries
+/// (and matches, optionally). The source is attached read-only; the output is
+/// written to a temporary file and renamed into place.
+void WriteFilteredDatabase(const std::string& source_path,
+                           const std::string& output_path,
+                           const std::vector<ImagePair>& keep,
+                           const FilteredDatabaseOptions& options = {});
+
+/// COLMAP 3.8's CREATE TABLE statements, in order.
+const std::vector<std::string>& ColmapSchemaStatements();
+
+}  // namespace hisfm

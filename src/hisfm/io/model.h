@@ -1,0 +1,136 @@
+// COLMAP sparse models (cameras, images, points3D) in memory, and their
+// binary and text files.
+//
+// Binary format (COLMAP 3.8, src/base/reconstruction.cc), little-endian:
+//   cameras.bin:  uint64 num_cameras; per camera: uint32 camera_id,
+//                 int32 model_id, uint64 width, uint64 height,
+//                 float64 params[num_params(model_id)].
+//   images.bin:   uint64 num_reg_images; per image: uint32 image_id,
+//                 float64 qw, qx, qy, qz, float64 tx, ty, tz (cam_from_world),
+//                 uint32 camera_id, name as NUL-terminated chars,
+//                 uint64 num_points2D; per point: float64 x, y,
+//                 uint64 point3D_id (2^64-1 = none).
+//   points3D.bin: uint64 num_points; per point: uint64 point3D_id,
+//                 float64 x, y, z, uint8 r, g, b, float64 error,
+//                 uint64 track_length; per element: uint32 image_id,
+//                 uint32 point2D_idx.
+// Text format: cameras.txt, images.txt (two lines per image), points3D.txt,
+// with COLMAP's comment headers, written byte-identically to
+// `colmap model_converter --output_type TXT`.
+#pragma once
+
+#include <Eigen/Core>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "hisfm/util/rigid3d.h"
+#include "hisfm/util/types.h"
+
+namespace hisfm {
+
+/// Intrinsics of one camera; model ids and parameter orders are COLMAP's.
+struct Camera {
+  CameraId camera_id = kInvalidCameraId;
+  int model_id = -1;
+  uint64_t width = 0;
+  uint64_t height = 0;
+  std::vector<double> params;
+};
+
+/// A keypoint of a registered image and the 3D point it observes, if any.
+struct Point2D {
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  Point3DId point3D_id = kInvalidPoint3DId;
+};
+
+/// A registered image.
+struct Image {
+  ImageId image_id = kInvalidImageId;
+  CameraId camera_id = kInvalidCameraId;
+  std::string name;
+  Rigid3d cam_from_world;
+  std::vector<Point2D> points2D;
+
+  /// Camera centre in world coordinates.
+  Eigen::Vector3d ProjectionCenter() const {
+    return cam_from_world.Inverse().translation;
+  }
+};
+
+/// One observation of a 3D point.
+struct TrackElement {
+  ImageId image_id = kInvalidImageId;
+  Point2DIdx point2D_idx = 0;
+};
+
+/// A triangulated 3D point with its colour, mean reprojection error and track.
+struct Point3D {
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  Eigen::Matrix<uint8_t, 3, 1> color = Eigen::Matrix<uint8_t, 3, 1>::Zero();
+  double error = -1.0;
+  std::vector<TrackElement> track;
+};
+
+/// The order in which a model's records appeared in the files it was read
+/// from. COLMAP keeps cameras, images and points in hash maps and writes them
+/// in the maps' iteration order, so files are not sorted by id. Keeping the
+/// order lets WriteModelBinary reproduce a file byte for byte, and lets
+/// WriteModelText list the records in the order `colmap model_converter`
+/// would. Ids no longer in the model are skipped when writing; ids missing
+/// from the order (records added in memory) follow in increasing id order.
+/// Models built in memory may leave it empty.
+struct ModelFileOrder {
+  std::vector<CameraId> cameras;
+  std::vector<ImageId> images;
+  std::vector<Point3DId> points3D;
+};
+
+/// A sparse model: what COLMAP writes into one numbered model folder.
+struct Reconstruction {
+  std::map<CameraId, Camera> cameras;
+  std::map<ImageId, Image> images;
+  std::map<Point3DId, Point3D> points3D;
+  /// Record order of the files this model was read from (see ModelFileOrder).
+  ModelFileOrder file_order;
+
+  /// The image with this name, or nullptr.
+  const Image* FindImageWithName(const std::string& name) const;
+  size_t NumRegImages() const { return images.size(); }
+  size_t NumPoints3D() const { return points3D.size(); }
+  /// Mean number of observations per 3D point (0 without points).
+  double MeanTrackLength() const;
+  /// Mean of the points' stored reprojection errors (0 without points).
+  double MeanReprojectionError() const;
+  /// Total number of observations over all points.
+  size_t NumObservations() const;
+};
+
+/// Number of parameters of a COLMAP camera model, or -1 if unknown.
+int CameraModelNumParams(int model_id);
+/// COLMAP's name of a camera model ("SIMPLE_RADIAL"), or "" if unknown.
+std::string CameraModelIdToName(int model_id);
+/// Model id for a COLMAP model name, or -1 if unknown.
+int CameraModelNameToId(const std::string& name);
+
+/// Reads a model folder, binary if cameras.bin is there, else text; throws
+/// hisfm::Error with a one-line message if it is missing or malformed.
+Reconstruction ReadModel(const std::string& path);
+Reconstruction ReadModelBinary(const std::string& path);
+Reconstruction ReadModelText(const std::string& path);
+/// Writes cameras.bin, images.bin and points3D.bin into an existing folder,
+/// each file through a temporary file and a rename. Records are written in
+/// model.file_order and values exactly as stored, so a binary model read and
+/// written again is byte-identical. (COLMAP itself would re-normalize the
+/// quaternions and write its hash-map order instead.)
+void WriteModelBinary(const Reconstruction& model, const std::string& path);
+/// Writes cameras.txt, images.txt and points3D.txt into an existing folder,
+/// each file through a temporary file and a rename. The text is byte-identical
+/// to what `colmap model_converter --output_type TXT` writes from the files
+/// the model was read from (or from WriteModelBinary's output): COLMAP's
+/// headers, 17 significant digits, quaternions normalized as COLMAP does on
+/// reading and again on writing, records in the iteration order of COLMAP's
+/// hash maps filled in model.file_order.
+void WriteModelText(const Reconstruction& model, const std::string& path);
+
+}  // namespace hisfm

@@ -1,0 +1,39 @@
+// Small RAII helpers around the SQLite C API, used by the database readers and
+// writers.
+#pragma once
+
+#include <sqlite3.h>
+
+#include <string>
+
+#include "hisfm/util/error.h"
+
+namespace hisfm {
+
+/// A prepared statement, finalized on destruction.
+class SqliteStatement {
+ public:
+  SqliteStatement(sqlite3* db, const std::string& sql);
+  ~SqliteStatement();
+  SqliteStatement(const SqliteStatement&) = delete;
+  SqliteStatement& operator=(const SqliteStatement&) = delete;
+
+  sqlite3_stmt* get() const { return stmt_; }
+  /// Steps once; true while a row is available, false when done.
+  bool Step();
+  /// Resets for another execution with new bindings.
+  void Reset();
+
+ private:
+  sqlite3* db_;
+  sqlite3_stmt* stmt_ = nullptr;
+  std::string sql_;
+};
+
+/// Executes SQL without results; throws Error naming `context` on failure.
+void SqliteExec(sqlite3* db, const std::string& sql);
+
+/// Quotes a string as an SQL literal ('it''s').
+std::string SqliteQuote(const std::string& value);
+
+}  // namespace hisfm

@@ -1,0 +1,131 @@
+#include "hisfm/recon/colmap_runner.h"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <deque>
+#include <fstream>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
+
+extern char** environ;
+
+namespace hisfm {
+
+void ColmapRunnerOptions::Check() const {
+  HISFM_CHECK_OPTION(!colmap_path.empty());
+}
+
+namespace {
+
+// Spawns `argv` with stdout/stderr to `log_fd`; returns the exit status, or
+// -1 if it could not start (errno in *spawn_error).
+int Spawn(const std::vector<std::string>& argv, int log_fd, int* spawn_error) {
+  std::vector<char*> cargs;
+  for (const std::string& a : argv) cargs.push_back(const_cast<char*>(a.c_str()));
+  cargs.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, log_fd, STDERR_FILENO);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null",
+                                   O_RDONLY, 0);
+  pid_t pid = 0;
+  const int rc = posix_spawnp(&pid, cargs[0], &actions, nullptr, cargs.data(),
+                              environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    *spawn_error = rc;
+    return -1;
+  }
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return -1;
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+std::string JoinCommand(const std::vector<std::string>& argv) {
+  std::string out;
+  for (const std::string& a : argv) {
+    if (!out.empty()) out += ' ';
+    out += a;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string TailOfFile(const std::string& path, size_t max_lines) {
+  std::ifstream in(path);
+  std::deque<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    lines.push_back(line);
+    if (lines.size() > max_lines) lines.pop_front();
+  }
+  std::string out;
+  for (const std::string& l : lines) {
+    if (!out.empty()) out += " | ";
+    out += l;
+  }
+  return out;
+}
+
+std::string CheckColmapAvailable(const ColmapRunnerOptions& options) {
+  options.Check();
+  char path[] = "/tmp/hisfm-colmap-check-XXXXXX";
+  const int fd = mkstemp(path);
+  ThrowUnless(fd >= 0, "cannot create a temporary file in /tmp");
+  int spawn_error = 0;
+  const int status = Spawn({options.colmap_path, "help"}, fd, &spawn_error);
+  close(fd);
+  const std::string head = TailOfFile(path, 1000);
+  unlink(path);
+  ThrowUnless(status >= 0,
+              StrCat("colmap not found: cannot run '", options.colmap_path,
+                     "' (", std::strerror(spawn_error),
+                     "); install it with scripts/setup.sh or set "
+                     "--colmap_path"));
+  const size_t pos = head.find("COLMAP");
+  ThrowUnless(pos != std::string::npos,
+              StrCat("'", options.colmap_path, "' does not look like COLMAP"));
+  const size_t end = head.find(" | ", pos);
+  return head.substr(pos, end == std::string::npos ? end : end - pos);
+}
+
+double RunColmap(const ColmapRunnerOptions& options,
+                 const std::vector<std::string>& args,
+                 const std::string& log_path) {
+  options.Check();
+  std::vector<std::string> argv = {options.colmap_path};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const std::string command = JoinCommand(argv);
+  HISFM_LOG_DEBUG("running: {}", command);
+  const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  ThrowUnless(fd >= 0, StrCat("cannot write log file ", log_path));
+  {
+    const std::string header = "$ " + command + "\n";
+    (void)!write(fd, header.data(), header.size());
+  }
+  Timer timer;
+  int spawn_error = 0;
+  const int status = Spawn(argv, fd, &spawn_error);
+  close(fd);
+  ThrowUnless(status >= 0, StrCat("colmap not found: cannot run '",
+                                  options.colmap_path,
+                                  "': ", std::strerror(spawn_error)));
+  ThrowUnless(status == 0,
+              StrCat("colmap failed (exit ", status, "): ", command,
+                     " -- log ", log_path, ": ", TailOfFile(log_path, 4)));
+  return timer.ElapsedSeconds();
+}
+
+}  // namespace hisfm

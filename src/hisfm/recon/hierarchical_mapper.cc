@@ -1,0 +1,332 @@
+#include "hisfm/recon/hierarchical_mapper.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include "hisfm/io/database.h"
+#include "hisfm/io/model.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
+
+namespace fs = std::filesystem;
+
+namespace hisfm {
+
+void HierarchicalMapperOptions::Check() const {
+  HISFM_CHECK_OPTION(min_num_matches >= 1);
+  HISFM_CHECK_OPTION(min_model_size >= 2);
+  hierarchy.Check();
+  verifier.Check();
+  colmap.Check();
+}
+
+namespace {
+
+struct LoadedInput {
+  std::unique_ptr<Database> database;
+  ViewGraph graph;
+  std::unordered_map<ImageId, std::string> names;
+  Hierarchy hierarchy;
+  std::string verifier_name;
+  double read_seconds = 0;
+  double graph_seconds = 0;
+};
+
+LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
+                                  const std::string& image_path,
+                                  const HierarchicalMapperOptions& options) {
+  LoadedInput in;
+  Timer timer;
+  LogHeading("Reading database");
+  in.database = std::make_unique<Database>(database_path);
+  for (const DatabaseImage& im : in.database->ReadImages()) {
+    in.names[im.image_id] = im.name;
+  }
+  ThrowUnless(!in.names.empty(),
+              StrCat("database has no images: ", database_path));
+  in.graph = ViewGraph::FromDatabase(*in.database, options.min_num_matches);
+  ThrowUnless(in.graph.NumEdges() > 0,
+              StrCat("database has no verified image pairs with at least ",
+                     options.min_num_matches, " inliers (run colmap's "
+                     "matcher first): ", database_path));
+  in.read_seconds = timer.ElapsedSeconds();
+  HISFM_LOG_INFO("{} images, {} verified pairs ({:.2f} s)",
+                 in.graph.NumImages(), in.graph.NumEdges(), in.read_seconds);
+
+  timer.Restart();
+  LogHeading("Building the hierarchy");
+  const Database& db = *in.database;
+  in.hierarchy = BuildHierarchy(
+      in.graph,
+      [&](const Communities& communities) {
+        VerifierContext context;
+        context.database = &db;
+        context.graph = &in.graph;
+        context.communities = &communities;
+        context.image_path = image_path;
+        context.image_names = in.names;
+        std::unique_ptr<BridgeScorer> scorer =
+            CreateVerifier(options.verifier, context);
+        in.verifier_name = scorer->Name();
+        return scorer;
+      },
+      options.hierarchy);
+  in.graph_seconds = timer.ElapsedSeconds();
+  const Hierarchy& h = in.hierarchy;
+  HISFM_LOG_INFO(
+      "{} communities, {} candidate bridges, K = {}, {} bridges taken, {} "
+      "rejected, {} verified by '{}'",
+      h.communities.NumCommunities(), h.skeleton.num_candidate_bridges,
+      h.skeleton.num_trees, h.skeleton.bridges.size(),
+      h.skeleton.rejected.size(), h.skeleton.num_verified, in.verifier_name);
+  HISFM_LOG_INFO(
+      "skeleton: {} images, {} edges; hierarchy: {} edges; {} component(s); "
+      "{} isolated image(s) ({:.2f} s)",
+      h.skeleton.images.size(), h.skeleton.Edges().size(), h.Edges().size(),
+      h.components.size(), h.isolated_images.size(), in.graph_seconds);
+  if (!h.isolated_images.empty()) {
+    HISFM_LOG_WARN("{} image(s) have no verified pair and are not registered",
+                   h.isolated_images.size());
+  }
+  return in;
+}
+
+void WriteImageList(const std::vector<ImageId>& ids,
+                    const std::unordered_map<ImageId, std::string>& names,
+                    const std::string& path) {
+  std::ofstream out(path);
+  for (ImageId id : ids) out << names.at(id) << '\n';
+  ThrowUnless(out.good(), StrCat("cannot write ", path));
+}
+
+// Largest model folder under `path` (numbered sub-folders), or "".
+std::string LargestModel(const std::string& path) {
+  std::string best;
+  size_t best_size = 0;
+  std::error_code ec;
+  if (!fs::is_directory(path, ec)) return best;
+  for (const auto& entry : fs::directory_iterator(path)) {
+    if (!entry.is_directory() ||
+        !fs::exists(entry.path() / "images.bin")) {
+      continue;
+    }
+    const size_t size = ReadModelBinary(entry.path().string()).NumRegImages();
+    if (size > best_size) {
+      best_size = size;
+      best = entry.path().string();
+    }
+  }
+  return best;
+}
+
+nlohmann::json ModelStats(const Reconstruction& model) {
+  return {{"registered_images", model.NumRegImages()},
+          {"points3D", model.NumPoints3D()},
+          {"observations", model.NumObservations()},
+          {"mean_track_length", model.MeanTrackLength()},
+          {"mean_reprojection_error", model.MeanReprojectionError()}};
+}
+
+nlohmann::json HierarchySummary(const LoadedInput& in) {
+  const Hierarchy& h = in.hierarchy;
+  size_t num_bridge_edges = 0;
+  for (const BridgeRecord& b : h.skeleton.bridges) num_bridge_edges += 1;
+  return {{"images", in.graph.NumImages()},
+          {"verified_pairs", in.graph.NumEdges()},
+          {"communities", h.communities.NumCommunities()},
+          {"candidate_bridges", h.skeleton.num_candidate_bridges},
+          {"num_trees", h.skeleton.num_trees},
+          {"skeleton_bridges", num_bridge_edges},
+          {"rejected_bridges", h.skeleton.rejected.size()},
+          {"skeleton_images", h.skeleton.images.size()},
+          {"skeleton_edges", h.skeleton.Edges().size()},
+          {"leaf_edges", h.leaf_edges.size()},
+          {"hierarchy_edges", h.Edges().size()},
+          {"verifier", in.verifier_name},
+          {"verifier_calls", h.skeleton.num_verified},
+          {"verifier_batches", h.skeleton.num_scorer_calls},
+          {"verified_fraction",
+           in.graph.NumEdges() ? static_cast<double>(h.skeleton.num_verified) /
+                                     in.graph.NumEdges()
+                               : 0.0},
+          {"components", h.components.size()},
+          {"isolated_images", h.isolated_images.size()}};
+}
+
+}  // namespace
+
+nlohmann::json ComputeViewGraphJson(const std::string& database_path,
+                                    const std::string& image_path,
+                                    const HierarchicalMapperOptions& options) {
+  options.Check();
+  LoadedInput in = LoadAndBuildHierarchy(database_path, image_path, options);
+  nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
+  out["summary"] = HierarchySummary(in);
+  out["timings"] = {{"read_database", in.read_seconds},
+                    {"build_hierarchy", in.graph_seconds}};
+  return out;
+}
+
+nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
+                                     const HierarchicalMapperOptions& options) {
+  options.Check();
+  Timer total;
+  CheckFileReadable(paths.database_path, "database");
+  CheckDirectoryExists(paths.image_path, "image folder");
+  ThrowUnless(!paths.output_path.empty(), "--output_path is required");
+  ThrowUnless(IsMissingOrEmptyDirectory(paths.output_path),
+              StrCat("output folder is not empty: ", paths.output_path));
+  CheckColmapAvailable(options.colmap);
+
+  AtomicDirectory output(paths.output_path);
+  LoadedInput in =
+      LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
+  const Hierarchy& h = in.hierarchy;
+
+  const std::string work =
+      paths.work_path.empty() ? paths.output_path + "_work" : paths.work_path;
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  fs::create_directories(work, ec);
+  ThrowUnless(!ec, StrCat("cannot create work folder ", work));
+  {
+    std::ofstream out(work + "/view_graph.json");
+    out << HierarchyToJson(h, in.graph, in.names).dump(1);
+  }
+
+  nlohmann::json models = nlohmann::json::array();
+  double scaffold_seconds = 0, attach_seconds = 0, ba_seconds = 0,
+         filter_seconds = 0;
+  size_t model_index = 0;
+  size_t num_registered = 0;
+  for (size_t c = 0; c < h.components.size(); ++c) {
+    const HierarchyComponent& comp = h.components[c];
+    if (comp.images.size() < static_cast<size_t>(options.min_model_size)) {
+      HISFM_LOG_WARN("component {} has {} images: skipped", c,
+                     comp.images.size());
+      continue;
+    }
+    const std::string dir = StrCat(work, "/component", c);
+    fs::create_directories(dir + "/scaffold", ec);
+    fs::create_directories(dir + "/attached", ec);
+    fs::create_directories(dir + "/refined", ec);
+    const std::string log = dir + "/colmap.log";
+    LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
+                      comp.skeleton_images.size(), " in the scaffold"));
+
+    Timer timer;
+    WriteFilteredDatabase(paths.database_path, dir + "/skeleton.db",
+                          comp.skeleton_edges);
+    WriteFilteredDatabase(paths.database_path, dir + "/hierarchy.db",
+                          comp.edges);
+    WriteImageList(comp.skeleton_images, in.names, dir + "/skeleton_images.txt");
+    WriteImageList(comp.images, in.names, dir + "/images.txt");
+    filter_seconds += timer.ElapsedSeconds();
+
+    LogHeading(StrCat("Scaffold: colmap mapper on ",
+                      comp.skeleton_images.size(), " skeletal images, ",
+                      comp.skeleton_edges.size(), " edges"));
+    std::vector<std::string> args = {
+        "mapper", "--database_path", dir + "/skeleton.db", "--image_path",
+        paths.image_path, "--output_path", dir + "/scaffold",
+        "--image_list_path", dir + "/skeleton_images.txt"};
+    args.insert(args.end(), options.mapper_args.begin(),
+                options.mapper_args.end());
+    const double t_scaffold = RunColmap(options.colmap, args, log);
+    scaffold_seconds += t_scaffold;
+    const std::string scaffold = LargestModel(dir + "/scaffold");
+    if (scaffold.empty()) {
+      HISFM_LOG_WARN("component {}: colmap built no scaffold ({:.1f} s)", c,
+                     t_scaffold);
+      continue;
+    }
+    const size_t scaffold_size = ReadModelBinary(scaffold).NumRegImages();
+    HISFM_LOG_INFO("scaffold: {}/{} skeletal images registered ({:.1f} s)",
+                   scaffold_size, comp.skeleton_images.size(), t_scaffold);
+
+    LogHeading(StrCat("Attach: registering ",
+                      comp.images.size() - scaffold_size,
+                      " images on the hierarchy's ", comp.edges.size(),
+                      " edges"));
+    args = {"mapper", "--database_path", dir + "/hierarchy.db",
+            "--image_path", paths.image_path, "--input_path", scaffold,
+            "--output_path", dir + "/attached", "--image_list_path",
+            dir + "/images.txt"};
+    args.insert(args.end(), options.mapper_args.begin(),
+                options.mapper_args.end());
+    const double t_attach = RunColmap(options.colmap, args, log);
+    attach_seconds += t_attach;
+    std::string attached = dir + "/attached";
+    if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
+    ThrowUnless(!attached.empty(),
+                StrCat("colmap wrote no model after attaching leaves; see ",
+                       log));
+    HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
+                   ReadModelBinary(attached).NumRegImages(),
+                   comp.images.size(), t_attach);
+
+    std::string final_model = attached;
+    if (options.global_bundle_adjustment) {
+      LogHeading("Global bundle adjustment");
+      const double t_ba = RunColmap(options.colmap,
+                                    {"bundle_adjuster", "--input_path",
+                                     attached, "--output_path",
+                                     dir + "/refined"},
+                                    log);
+      ba_seconds += t_ba;
+      final_model = dir + "/refined";
+      HISFM_LOG_INFO("bundle adjustment done ({:.1f} s)", t_ba);
+    }
+    const Reconstruction model = ReadModelBinary(final_model);
+    const std::string model_dir =
+        StrCat(output.path(), "/", model_index++);
+    fs::create_directories(model_dir, ec);
+    WriteModelBinary(model, model_dir);
+    num_registered += model.NumRegImages();
+    nlohmann::json stats = ModelStats(model);
+    stats["component_images"] = comp.images.size();
+    stats["scaffold_images"] = comp.skeleton_images.size();
+    stats["scaffold_registered"] = scaffold_size;
+    stats["path"] = std::to_string(model_index - 1);
+    models.push_back(stats);
+  }
+  ThrowUnless(model_index > 0,
+              StrCat("no model could be reconstructed; see the logs in ",
+                     work));
+
+  nlohmann::json summary = HierarchySummary(in);
+  summary["database_path"] = fs::absolute(paths.database_path).string();
+  summary["image_path"] = fs::absolute(paths.image_path).string();
+  summary["work_path"] = fs::absolute(work).string();
+  summary["registered_images"] = num_registered;
+  summary["models"] = models;
+  if (!models.empty()) {
+    summary["points3D"] = models[0]["points3D"];
+    summary["mean_reprojection_error"] = models[0]["mean_reprojection_error"];
+    summary["mean_track_length"] = models[0]["mean_track_length"];
+  }
+  summary["timings"] = {{"read_database", in.read_seconds},
+                        {"build_hierarchy", in.graph_seconds},
+                        {"filter_databases", filter_seconds},
+                        {"scaffold", scaffold_seconds},
+                        {"attach", attach_seconds},
+                        {"global_bundle_adjustment", ba_seconds},
+                        {"total", total.ElapsedSeconds()}};
+  if (!paths.options_record.empty()) {
+    WriteFileAtomically(output.path() + "/hisfm_options.ini",
+                        paths.options_record);
+  }
+  WriteFileAtomically(output.path() + "/hisfm_summary.json",
+                      summary.dump(2) + "\n");
+  output.Commit();
+  LogHeading(StrCat("Done: ", num_registered, " of ", in.graph.NumImages(),
+                    " images registered in ", model_index, " model(s), ",
+                    std::lround(total.ElapsedSeconds()), " s"));
+  return summary;
+}
+
+}  // namespace hisfm

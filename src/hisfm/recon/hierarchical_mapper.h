@@ -1,0 +1,70 @@
+// Coarse-to-fine reconstruction on the hierarchy with COLMAP as back-end.
+//
+// HiSfM paper, Sec. III-D: incremental SfM on the skeleton only (the
+// scaffold), then registration of the leaves using only the hierarchy's
+// edges (PnP, triangulation, local bundle adjustment, repeated until nothing
+// more registers), then one global bundle adjustment. Each stage is a
+// `colmap` call on a filtered copy of the database:
+//   scaffold: colmap mapper --image_list_path <skeleton images> on E_s;
+//   attach:   colmap mapper --input_path <scaffold> on E_H = E_s + E_l;
+//   refine:   colmap bundle_adjuster.
+// One model per connected component of the hierarchy.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "hisfm/graph/hierarchy.h"
+#include "hisfm/recon/colmap_runner.h"
+#include "hisfm/verify/verifier_factory.h"
+
+namespace hisfm {
+
+struct HierarchicalMapperOptions {
+  /// Verified pairs with fewer inliers are ignored (COLMAP's
+  /// --Mapper.min_num_matches default).
+  int min_num_matches = 15;
+  /// Communities, skeleton and leaves.
+  HierarchyOptions hierarchy;
+  /// The bridge verifier.
+  VerifierOptions verifier;
+  /// The colmap executable.
+  ColmapRunnerOptions colmap;
+  /// Run one global bundle adjustment after the attachment.
+  bool global_bundle_adjustment = true;
+  /// Components with fewer images are not reconstructed.
+  int min_model_size = 3;
+  /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.
+  std::vector<std::string> mapper_args;
+
+  void Check() const;
+};
+
+/// Paths of one run.
+struct MapperPaths {
+  std::string database_path;
+  std::string image_path;
+  /// Final models go to output_path/0, /1, ...; must be missing or empty.
+  std::string output_path;
+  /// Intermediate databases, scaffolds and logs (kept for inspection);
+  /// default output_path + "_work" when empty.
+  std::string work_path;
+  /// Text recording the options used (the command line's INI dump), written
+  /// to output_path/hisfm_options.ini when not empty.
+  std::string options_record;
+};
+
+/// Runs the whole pipeline. Returns the summary that is also written to
+/// output_path/hisfm_summary.json. Throws hisfm::Error on bad input or a
+/// failing colmap call; nothing is left under output_path then.
+nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
+                                     const HierarchicalMapperOptions& options);
+
+/// Builds only the hierarchy of a database (view graph, communities,
+/// verified skeleton, leaves) and returns HierarchyToJson plus timings.
+nlohmann::json ComputeViewGraphJson(const std::string& database_path,
+                                    const std::string& image_path,
+                                    const HierarchicalMapperOptions& options);
+
+}  // namespace hisfm

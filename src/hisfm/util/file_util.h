@@ -1,0 +1,47 @@
+// File-system helpers: paths, existence checks, and atomic output folders.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace hisfm {
+
+/// Throws Error unless `path` is an existing regular, readable file.
+void CheckFileReadable(const std::string& path, const std::string& what);
+
+/// Throws Error unless `path` is an existing directory.
+void CheckDirectoryExists(const std::string& path, const std::string& what);
+
+/// True if `path` does not exist or is an empty directory.
+bool IsMissingOrEmptyDirectory(const std::string& path);
+
+/// A folder that is filled under a temporary name next to its final path and
+/// renamed into place by Commit(), so that an interrupted run never leaves a
+/// half-written result at `final_path`. Without Commit() the temporary folder
+/// is removed by the destructor.
+class AtomicDirectory {
+ public:
+  /// `final_path` must not exist, or be an empty directory (then replaced).
+  explicit AtomicDirectory(std::string final_path);
+  ~AtomicDirectory();
+  AtomicDirectory(const AtomicDirectory&) = delete;
+  AtomicDirectory& operator=(const AtomicDirectory&) = delete;
+
+  /// The temporary folder to write into.
+  const std::string& path() const { return temp_path_; }
+  /// Renames the temporary folder to the final path.
+  void Commit();
+
+ private:
+  std::string final_path_;
+  std::string temp_path_;
+  bool committed_ = false;
+};
+
+/// Writes `contents` to `path` through a temporary file and a rename.
+void WriteFileAtomically(const std::string& path, const std::string& contents);
+
+/// Reads a whole text file; throws Error if it cannot be read.
+std::string ReadTextFile(const std::string& path);
+
+}  // namespace hisfm

@@ -1,0 +1,30 @@
+// Creation of the bridge verifier chosen by --HiSfM.verifier.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "hisfm/graph/bridge_scorer.h"
+#include "hisfm/verify/verifier_context.h"
+
+namespace hisfm {
+
+struct VerifierOptions {
+  /// Which verifier scores the bridges:
+  ///   "builtin"       the disambiguator needing no learned weights (default);
+  ///   "none"          accept every bridge;
+  ///   "scores:FILE"   precomputed `name1 name2 probability` lines;
+  ///   "command:CMD"   run CMD on batches of bridges (see CommandVerifier).
+  std::string verifier = "builtin";
+  /// Pairs per call of a command verifier.
+  int command_batch_size = 32;
+
+  void Check() const;
+};
+
+/// Creates the verifier; throws hisfm::Error for an unknown kind or a bad
+/// scores file.
+std::unique_ptr<BridgeScorer> CreateVerifier(const VerifierOptions& options,
+                                             const VerifierContext& context);
+
+}  // namespace hisfm
