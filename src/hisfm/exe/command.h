@@ -30,6 +30,7 @@ struct CommandRegistrar {
 
 }  // namespace hisfm
 
+// Use in the same namespace as `fn` (e.g. right after its definition).
 #define HISFM_REGISTER_COMMAND(name, description, fn)              \
   static ::hisfm::CommandRegistrar hisfm_command_registrar_##fn( \
       name, description, fn)

@@ -77,12 +77,12 @@ int RunViewGraphCommand(int argc, char** argv) {
   return 0;
 }
 
-}  // namespace
-}  // namespace hisfm
-
 HISFM_REGISTER_COMMAND("mapper",
                        "hierarchical, disambiguating SfM on a COLMAP database",
                        RunMapperCommand);
 HISFM_REGISTER_COMMAND("view_graph",
                        "build the hierarchy only and write it as JSON",
                        RunViewGraphCommand);
+
+}  // namespace
+}  // namespace hisfm
