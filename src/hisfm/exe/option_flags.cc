@@ -48,6 +48,15 @@ void AddHierarchicalMapperFlags(CLI::App& app,
   app.add_option("--HiSfM.verifier", o->verifier.verifier,
                  "Bridge verifier: builtin, none, scores:FILE, command:CMD")
       ->capture_default_str();
+  app.add_option("--HiSfM.min_relative_coverage",
+                 o->verifier.builtin.min_relative_coverage,
+                 "builtin verifier: a bridge's inlier coverage relative to "
+                 "each image's trusted pair that scores 0.5")
+      ->capture_default_str();
+  app.add_option("--HiSfM.coverage_grid_cells",
+                 o->verifier.builtin.grid_cells,
+                 "builtin verifier: grid cells along the longer image side")
+      ->capture_default_str();
   app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
                  "Bridges per call of a command verifier")
       ->capture_default_str();

@@ -315,7 +315,9 @@ TEST(Hierarchy, EveryLeafIsAttachedToItsScaffold) {
     const HierarchyComponent& comp = h.components[0];
     EXPECT_EQ(comp.images.size(), g.NumImages());
     for (ImageId id : g.Images()) {
-      if (!h.skeleton.Contains(id)) EXPECT_TRUE(attached.count(id)) << id;
+      if (!h.skeleton.Contains(id)) {
+        EXPECT_TRUE(attached.count(id)) << id;
+      }
     }
     EXPECT_LT(h.Edges().size(), g.NumEdges());
   }

@@ -41,8 +41,8 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
                                   const HierarchicalMapperOptions& options) {
   LoadedInput in;
   Timer timer;
-  LogHeading("Reading database");
   in.database = std::make_unique<Database>(database_path);
+  LogHeading("Reading database");
   for (const DatabaseImage& im : in.database->ReadImages()) {
     in.names[im.image_id] = im.name;
   }
@@ -133,14 +133,12 @@ nlohmann::json ModelStats(const Reconstruction& model) {
 
 nlohmann::json HierarchySummary(const LoadedInput& in) {
   const Hierarchy& h = in.hierarchy;
-  size_t num_bridge_edges = 0;
-  for (const BridgeRecord& b : h.skeleton.bridges) num_bridge_edges += 1;
   return {{"images", in.graph.NumImages()},
           {"verified_pairs", in.graph.NumEdges()},
           {"communities", h.communities.NumCommunities()},
           {"candidate_bridges", h.skeleton.num_candidate_bridges},
           {"num_trees", h.skeleton.num_trees},
-          {"skeleton_bridges", num_bridge_edges},
+          {"skeleton_bridges", h.skeleton.bridges.size()},
           {"rejected_bridges", h.skeleton.rejected.size()},
           {"skeleton_images", h.skeleton.images.size()},
           {"skeleton_edges", h.skeleton.Edges().size()},
@@ -181,6 +179,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   ThrowUnless(IsMissingOrEmptyDirectory(paths.output_path),
               StrCat("output folder is not empty: ", paths.output_path));
   CheckColmapAvailable(options.colmap);
+  { Database probe(paths.database_path); }  // Fails early on a non-COLMAP file.
 
   AtomicDirectory output(paths.output_path);
   LoadedInput in =

@@ -14,6 +14,7 @@ bool StartsWith(const std::string& s, const std::string& prefix) {
 
 void VerifierOptions::Check() const {
   HISFM_CHECK_OPTION(command_batch_size >= 1);
+  builtin.Check();
   ThrowUnless(verifier == "builtin" || verifier == "none" ||
                   (StartsWith(verifier, "scores:") && verifier.size() > 7) ||
                   (StartsWith(verifier, "command:") && verifier.size() > 8),
@@ -34,7 +35,7 @@ std::unique_ptr<BridgeScorer> CreateVerifier(const VerifierOptions& options,
                                              options.command_batch_size,
                                              context);
   }
-  throw Error("the builtin verifier is not available in this build");
+  return std::make_unique<ContextDisambiguator>(context, options.builtin);
 }
 
 }  // namespace hisfm

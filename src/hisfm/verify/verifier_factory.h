@@ -5,6 +5,7 @@
 #include <string>
 
 #include "hisfm/graph/bridge_scorer.h"
+#include "hisfm/verify/context_disambiguator.h"
 #include "hisfm/verify/verifier_context.h"
 
 namespace hisfm {
@@ -18,6 +19,8 @@ struct VerifierOptions {
   std::string verifier = "builtin";
   /// Pairs per call of a command verifier.
   int command_batch_size = 32;
+  /// Options of the builtin disambiguator.
+  DisambiguatorOptions builtin;
 
   void Check() const;
 };

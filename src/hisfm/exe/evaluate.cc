@@ -1,0 +1,169 @@
+// `hisfm evaluate`: gauge-free pose evaluation of a model against a reference
+// (hisfm/eval/pose_evaluation.h).
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "hisfm/eval/pose_evaluation.h"
+#include "hisfm/exe/command.h"
+#include "hisfm/io/model.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+
+namespace fs = std::filesystem;
+
+namespace hisfm {
+namespace {
+
+bool IsModelFolder(const fs::path& path) {
+  std::error_code ec;
+  return fs::is_regular_file(path / "cameras.bin", ec) ||
+         fs::is_regular_file(path / "cameras.txt", ec);
+}
+
+bool IsNumber(const std::string& s) {
+  return !s.empty() && s.size() < 10 &&
+         std::all_of(s.begin(), s.end(),
+                     [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// Numbered model folders (0, 1, 2, ...) directly inside `folder`, in
+// numeric order.
+std::vector<fs::path> NumberedModels(const fs::path& folder) {
+  std::vector<std::pair<long, fs::path>> found;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_directory(ec) && IsNumber(name) &&
+        IsModelFolder(entry.path())) {
+      found.emplace_back(std::stol(name), entry.path());
+    }
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<fs::path> out;
+  for (const auto& [number, path] : found) out.push_back(path);
+  return out;
+}
+
+// The model folders that make up the result at `model_path`: the folder
+// itself, all numbered folders beside it if it is one of several, or the
+// numbered folders inside it (a COLMAP `sparse` folder).
+std::vector<fs::path> FindModels(const std::string& model_path) {
+  CheckDirectoryExists(model_path, "model");
+  fs::path path = fs::absolute(model_path).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();  // trailing '/'
+  if (IsModelFolder(path)) {
+    const fs::path parent = path.parent_path();
+    if (IsNumber(path.filename().string()) && !parent.empty()) {
+      const std::vector<fs::path> siblings = NumberedModels(parent);
+      if (siblings.size() > 1) return siblings;
+    }
+    return {path};
+  }
+  const std::vector<fs::path> inside = NumberedModels(path);
+  ThrowUnless(!inside.empty(),
+              StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
+                     "numbered model folders) in ",
+                     model_path));
+  return inside;
+}
+
+int RunEvaluate(int argc, char** argv) {
+  std::string model_path;
+  std::string reference_path;
+  std::string output_path;
+  bool json = false;
+  PoseEvaluationOptions options;
+
+  CLI::App app(
+      "Evaluates a model's camera poses against a reference model of the "
+      "same images (matched by name), gauge-free: relative rotation and "
+      "translation-direction errors of all image pairs, and camera-centre "
+      "errors after a robust similarity alignment. Several numbered models "
+      "(0, 1, ...) beside or inside --model are evaluated together and "
+      "reported as oversplit. Prints a summary ending with the verdict "
+      "(exit code 0 whether correct or not).");
+  app.add_option("--model", model_path,
+                 "Model folder (binary or text), or a folder of numbered "
+                 "model folders")
+      ->required();
+  app.add_option("--reference", reference_path, "Reference model folder")
+      ->required();
+  app.add_flag("--json", json, "Print JSON instead of the summary");
+  app.add_option("--output_path", output_path, "Also write the JSON here");
+  app.add_option("--verdict_threshold_deg", options.verdict_threshold_deg,
+                 "Pair error threshold of the verdict (degrees)")
+      ->capture_default_str();
+  app.add_option("--min_correct_pair_fraction",
+                 options.min_correct_pair_fraction,
+                 "Fraction of pairs within the threshold needed for "
+                 "'correct'")
+      ->capture_default_str();
+  app.add_option("--require_all_registered", options.require_all_registered,
+                 "'correct' needs every reference image registered")
+      ->capture_default_str();
+  app.add_option("--min_model_size", options.min_model_size,
+                 "Models with at least this many reference images count as "
+                 "parts of an oversplit result")
+      ->capture_default_str();
+  app.add_option("--alignment_inlier_threshold",
+                 options.alignment.inlier_threshold,
+                 "Centre alignment inlier distance, fraction of the scene "
+                 "extent")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  options.Check();
+
+  const std::vector<fs::path> model_paths = FindModels(model_path);
+  std::vector<Reconstruction> models;
+  for (const fs::path& path : model_paths) {
+    models.push_back(ReadModel(path.string()));
+  }
+  const Reconstruction reference = ReadModel(reference_path);
+  ThrowUnless(!reference.images.empty(),
+              StrCat("reference model has no images: ", reference_path));
+  const MultiModelEvaluation evaluation =
+      EvaluateModels(models, reference, options);
+
+  nlohmann::json j = ToJson(evaluation);
+  j["reference_path"] = reference_path;
+  j["model_paths"] = nlohmann::json::array();
+  for (const fs::path& path : model_paths) {
+    j["model_paths"].push_back(path.string());
+  }
+  if (!output_path.empty()) {
+    WriteFileAtomically(output_path, j.dump(2) + "\n");
+  }
+  if (json) {
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    std::string header;
+    if (model_paths.size() == 1) {
+      header = StrCat("model: ", model_paths[0].string(), "\n");
+    } else {
+      header = "models:";
+      for (const fs::path& path : model_paths) header += " " + path.string();
+      header += "\n";
+    }
+    header += StrCat("reference: ", reference_path, "\n");
+    std::printf("%s%s", header.c_str(),
+                FormatMultiModelEvaluation(evaluation).c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+HISFM_REGISTER_COMMAND("evaluate",
+                       "evaluate camera poses against a reference model "
+                       "(gauge-free; verdict correct or incorrect)",
+                       RunEvaluate);
+
+}  // namespace hisfm
