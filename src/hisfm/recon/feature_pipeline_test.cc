@@ -321,11 +321,19 @@ TEST(RunFeaturePipeline, ExtractsMatchesAndResumes) {
   EXPECT_EQ(third.fingerprint, first.fingerprint);
 
   // A changed matcher redoes matching only; a touched image redoes both.
+  // Sequential matching of direct neighbours only: the exhaustive pairs of
+  // before must be gone.
   options.matcher = "sequential";
+  options.matcher_args = {"--SequentialMatching.overlap", "2",
+                          "--SequentialMatching.quadratic_overlap", "0"};
   const FeaturePipelineResult fourth = RunFeaturePipeline(images, ws, options);
   EXPECT_TRUE(fourth.extraction_skipped);
   EXPECT_FALSE(fourth.matching_skipped);
   EXPECT_NE(fourth.fingerprint, first.fingerprint);
+  {
+    Database db(fourth.database_path);
+    EXPECT_EQ(db.NumVerifiedPairs(1), 3u);
+  }
   fs::last_write_time(images + "/0002.jpg",
                       fs::last_write_time(images + "/0002.jpg") +
                           std::chrono::seconds(10));

@@ -7,7 +7,9 @@
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
+#include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/io/model.h"
+#include "hisfm/recon/exhaustive_filter.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/test_util.h"
 
@@ -127,6 +129,64 @@ TEST(HierarchicalMapper, RegistersAllCupImages) {
   Database skeleton(paths.output_path + "_work/component0/skeleton.db");
   EXPECT_EQ(skeleton.NumVerifiedPairs(),
             summary["skeleton_edges"].get<size_t>());
+}
+
+// The pipeline with the default (builtin) verifier on a shared scene where
+// vanilla COLMAP folds: every image registered, at least 95% of the pairs
+// within 5 degrees of the reference.
+void ExpectCorrect(const std::string& scene, size_t num_images) {
+  const std::string db = SharedDataPath(scene, "database.db");
+  if (db.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  MapperPaths paths;
+  paths.database_path = db;
+  paths.image_path = SharedDataPath(scene, "images");
+  paths.output_path = tmp / "out";
+  const nlohmann::json summary =
+      RunHierarchicalMapper(paths, HierarchicalMapperOptions());
+  EXPECT_GT(summary["rejected_bridges"].get<int>(), 0)
+      << "the scene has doppelganger bridges to reject";
+  EXPECT_LT(summary["verified_fraction"].get<double>(), 0.25);
+  const Reconstruction reference =
+      ReadModel(SharedDataPath(scene, "reference"));
+  const PoseEvaluation e = EvaluateModel(ReadModel(paths.output_path + "/0"),
+                                         reference, PoseEvaluationOptions());
+  EXPECT_EQ(e.num_registered, num_images);
+  EXPECT_GE(e.verdict_pair_fraction, 0.95);
+  EXPECT_LT(e.median_rotation_error_deg, 2.0);
+  EXPECT_LT(e.median_translation_error_deg, 2.0);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+  EXPECT_FALSE(fs::exists(paths.output_path + "/1")) << "one model expected";
+}
+
+TEST(HierarchicalMapper, CupIsCorrectWhereColmapFolds) {
+  ExpectCorrect("yan2017/cup", 64);
+}
+
+TEST(HierarchicalMapper, BooksIsCorrectWhereColmapFolds) {
+  ExpectCorrect("yan2017/books", 21);
+}
+
+TEST(ExhaustiveFilter, DropsRejectedPairsAndKeepsTheInput) {
+  const std::string db = SharedDataPath("yan2017/cup", "database.db");
+  if (db.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  TempDir tmp;
+  const uint64_t before = FileFingerprint(db);
+  const nlohmann::json out = FilterPairsExhaustively(
+      db, "", tmp / "filtered.db", ExhaustiveFilterOptions());
+  EXPECT_EQ(FileFingerprint(db), before);
+  EXPECT_EQ(out["scored_pairs"], 2016);
+  const size_t kept = out["kept_pairs"].get<size_t>();
+  EXPECT_GT(kept, 0u);
+  EXPECT_LT(kept, 2016u);
+  Database filtered(tmp / "filtered.db");
+  EXPECT_EQ(filtered.NumVerifiedPairs(), kept);
+  EXPECT_EQ(filtered.ReadDescriptors(1).rows(),
+            Database(db).ReadDescriptors(1).rows());
+  EXPECT_THROW(FilterPairsExhaustively(db, "", tmp / "filtered.db",
+                                       ExhaustiveFilterOptions()),
+               Error);
 }
 
 }  // namespace

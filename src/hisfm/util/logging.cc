@@ -35,7 +35,7 @@ void ProgressReporter::Update(size_t done) {
   const auto now = std::chrono::steady_clock::now();
   const double since_print =
       std::chrono::duration<double>(now - last_print_).count();
-  if (since_print < (tty_ ? 0.2 : 5.0) && done_ < total_) return;
+  if (done_ >= total_ || since_print < (tty_ ? 0.2 : 5.0)) return;
   last_print_ = now;
   const double elapsed = std::chrono::duration<double>(now - start_).count();
   const double eta =
