@@ -1,0 +1,109 @@
+// `hisfm synth`: writes a synthetic COLMAP workspace with doppelgangers and
+// its ground truth (hisfm/synth/synthetic_dataset.h).
+#include <CLI/CLI.hpp>
+#include <string>
+
+#include "hisfm/exe/command.h"
+#include "hisfm/synth/synthetic_dataset.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/logging.h"
+
+namespace hisfm {
+namespace {
+
+int RunSynth(int argc, char** argv) {
+  SynthOptions options;
+  std::string output_path;
+  std::string log_level = "info";
+  std::string scenes;
+  for (const std::string& name : SynthSceneNames()) {
+    scenes += (scenes.empty() ? "" : ", ") + name;
+  }
+
+  CLI::App app("Writes a synthetic scene with doppelgangers as a COLMAP "
+               "database (DIR/database.db) with its ground truth "
+               "(DIR/ground_truth, binary model) and an empty DIR/images.");
+  app.add_option("--output_path", output_path,
+                 "Output folder (must not exist or be empty)")
+      ->required();
+  app.add_option("--scene", options.scene, "Scene: " + scenes)
+      ->capture_default_str();
+  app.add_option("--num_images", options.num_images, "Number of images")
+      ->capture_default_str();
+  app.add_option("--seed", options.seed, "Random seed")->capture_default_str();
+  app.add_option("--two_view_geometry", options.two_view_geometry,
+                 "direct (from the ground truth) or colmap (colmap "
+                 "matches_importer --match_type raw)")
+      ->capture_default_str();
+  app.add_option("--camera_model", options.camera_model,
+                 "SIMPLE_PINHOLE, PINHOLE or SIMPLE_RADIAL")
+      ->capture_default_str();
+  app.add_option("--image_width", options.image_width)->capture_default_str();
+  app.add_option("--image_height", options.image_height)->capture_default_str();
+  app.add_option("--focal_length", options.focal_length, "Pixels")
+      ->capture_default_str();
+  app.add_option("--object_density", options.object_density,
+                 "Multiplier of the points on the object / facades")
+      ->capture_default_str();
+  app.add_option("--street_block_houses", options.street_block_houses,
+                 "Street: houses per block of identical facades")
+      ->capture_default_str();
+  app.add_option("--background_density", options.background_density,
+                 "Multiplier of the points of the unique background")
+      ->capture_default_str();
+  app.add_option("--keypoint_noise", options.keypoint_noise,
+                 "Keypoint noise standard deviation (pixels)")
+      ->capture_default_str();
+  app.add_option("--detection_probability", options.detection_probability,
+                 "Probability that a visible point is detected")
+      ->capture_default_str();
+  app.add_option("--distractor_ratio", options.distractor_ratio,
+                 "Keypoints without a 3D point, per detected keypoint")
+      ->capture_default_str();
+  app.add_option("--max_view_angle", options.max_view_angle,
+                 "Largest viewpoint change of a match (degrees)")
+      ->capture_default_str();
+  app.add_option("--max_scale_ratio", options.max_scale_ratio,
+                 "Largest scale change of a match")
+      ->capture_default_str();
+  app.add_option("--outlier_ratio", options.outlier_ratio,
+                 "Random wrong matches per correct-appearance match")
+      ->capture_default_str();
+  app.add_option("--min_num_inliers", options.min_num_inliers,
+                 "Pairs with fewer inliers are not verified")
+      ->capture_default_str();
+  app.add_option("--max_error", options.max_error,
+                 "Inlier threshold (Sampson error, pixels)")
+      ->capture_default_str();
+  app.add_option("--min_inlier_ratio", options.min_inlier_ratio,
+                 "Smallest inlier ratio of a verified pair")
+      ->capture_default_str();
+  app.add_option("--write_matches", options.write_matches,
+                 "Write raw matches into the matches table (direct mode)")
+      ->capture_default_str();
+  app.add_option("--num_threads", options.num_threads, "-1: every core")
+      ->capture_default_str();
+  app.add_option("--colmap_path", options.colmap_path,
+                 "COLMAP executable (colmap mode)")
+      ->capture_default_str();
+  app.add_option("--log_level", log_level, "trace, debug, info, warn, error")
+      ->capture_default_str();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  SetLogLevel(log_level);
+  options.Check();
+  WriteSyntheticDataset(options, output_path);
+  return 0;
+}
+
+}  // namespace
+
+HISFM_REGISTER_COMMAND("synth",
+                       "Generate a synthetic scene with doppelgangers "
+                       "(COLMAP database + ground truth)",
+                       RunSynth);
+
+}  // namespace hisfm

@@ -1,0 +1,222 @@
+#include "hisfm/synth/synthetic_dataset.h"
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+
+#include "hisfm/io/database.h"
+#include "hisfm/io/database_writer.h"
+#include "hisfm/io/model.h"
+#include "hisfm/synth/synth_parallel.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
+
+namespace fs = std::filesystem;
+
+namespace hisfm {
+namespace {
+
+std::string ShellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) {
+    if (c == '\'') {
+      out += "'\\''";
+    } else {
+      out += c;
+    }
+  }
+  return out + "'";
+}
+
+void WriteSceneTables(const SyntheticScene& scene, DatabaseWriter* writer) {
+  DatabaseCamera camera;
+  camera.camera_id = scene.camera.camera_id;
+  camera.model_id = scene.camera.model_id;
+  camera.width = scene.camera.width;
+  camera.height = scene.camera.height;
+  camera.params = scene.camera.params;
+  // Known intrinsics: COLMAP verifies pairs as calibrated (essential matrix).
+  camera.prior_focal_length = true;
+  writer->WriteCamera(camera);
+  for (const SynthImage& image : scene.images) {
+    DatabaseImage db_image;
+    db_image.image_id = image.image_id;
+    db_image.name = image.name;
+    db_image.camera_id = camera.camera_id;
+    writer->WriteImage(db_image);
+    writer->WriteKeypoints(image.image_id, image.KeypointMatrix());
+  }
+}
+
+// Runs `colmap matches_importer --match_type raw` on the written database.
+void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
+                      const std::string& match_list_path) {
+  const std::string log_path = (fs::path(folder) / "matches_importer.log").string();
+  const std::string command = StrCat(
+      ShellQuote(options.colmap_path), " matches_importer --database_path ",
+      ShellQuote((fs::path(folder) / "database.db").string()),
+      " --match_list_path ", ShellQuote(match_list_path),
+      " --match_type raw --SiftMatching.use_gpu 0",
+      " --SiftMatching.min_num_inliers ", options.min_num_inliers,
+      " --SiftMatching.max_error ", options.max_error,
+      " --SiftMatching.min_inlier_ratio ", options.min_inlier_ratio,
+      " --SiftMatching.num_threads ", SynthNumThreads(options.num_threads),
+      " > ", ShellQuote(log_path), " 2>&1");
+  HISFM_LOG_INFO("Running {}", command);
+  const int status = std::system(command.c_str());
+  ThrowUnless(status == 0, StrCat("colmap matches_importer failed (status ",
+                                  status, "); see ", log_path));
+}
+
+}  // namespace
+
+bool IsDoppelgangerInlierSet(const SynthPairMatches& matches,
+                             const std::vector<FeatureMatch>& inliers) {
+  std::unordered_map<uint64_t, int> label_of;
+  label_of.reserve(matches.matches.size());
+  for (size_t m = 0; m < matches.matches.size(); ++m) {
+    const FeatureMatch& fm = matches.matches[m];
+    label_of[(static_cast<uint64_t>(fm.idx1) << 32) | fm.idx2] = matches.labels[m];
+  }
+  size_t num_true = 0, num_doppelganger = 0;
+  for (const FeatureMatch& fm : inliers) {
+    auto it = label_of.find((static_cast<uint64_t>(fm.idx1) << 32) | fm.idx2);
+    if (it == label_of.end() || it->second == kOutlierMatchLabel) continue;
+    if (it->second == 0) {
+      ++num_true;
+    } else {
+      ++num_doppelganger;
+    }
+  }
+  return num_doppelganger > num_true;
+}
+
+SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
+                                          const std::string& output_path) {
+  options.Check();
+  const SynthTwoViewMode mode = ParseSynthTwoViewMode(options.two_view_geometry);
+  Timer total_timer;
+  SynthDatasetSummary summary;
+  AtomicDirectory output(output_path);
+  const std::string folder = output.path();
+  const std::string database_path = (fs::path(folder) / "database.db").string();
+
+  LogHeading(StrCat("Synthetic scene ", options.scene, " (", options.num_images,
+                    " images, seed ", options.seed, ")"));
+  Timer timer;
+  const SyntheticScene scene = GenerateScene(options);
+  summary.num_images = scene.images.size();
+  summary.num_keypoints = scene.NumKeypoints();
+  {
+    const Reconstruction ground_truth = BuildGroundTruthModel(scene);
+    summary.num_points3D = ground_truth.NumPoints3D();
+    const std::string gt_path = (fs::path(folder) / "ground_truth").string();
+    fs::create_directories(gt_path);
+    WriteModelBinary(ground_truth, gt_path);
+  }
+  fs::create_directories(fs::path(folder) / "images");
+  summary.scene_seconds = timer.ElapsedSeconds();
+  HISFM_LOG_INFO("{} images, {} keypoints, {} ground-truth points ({:.1f} s)",
+                 summary.num_images, summary.num_keypoints,
+                 summary.num_points3D, summary.scene_seconds);
+
+  timer.Restart();
+  const size_t min_inliers = static_cast<size_t>(options.min_num_inliers);
+  if (mode == SynthTwoViewMode::kDirect) {
+    DatabaseWriter writer(database_path);
+    WriteSceneTables(scene, &writer);
+    ForEachSynthPair(scene, /*verify=*/true, [&](const SynthPair& pair) {
+      ++summary.num_matched_pairs;
+      if (options.write_matches) {
+        writer.WriteMatches(pair.matches.pair, pair.matches.matches);
+      }
+      const SynthVerification& v = pair.verification;
+      if (!v.verified || v.geometry.inlier_matches.size() < min_inliers) return;
+      writer.WriteTwoViewGeometry(v.geometry);
+      ++summary.num_verified_pairs;
+      summary.num_inlier_matches += v.geometry.inlier_matches.size();
+      if (v.IsDoppelganger()) ++summary.num_doppelganger_pairs;
+    });
+    writer.Close();
+  } else {
+    {
+      DatabaseWriter writer(database_path);
+      WriteSceneTables(scene, &writer);
+      writer.Close();
+    }
+    // Raw matches of pairs that can reach min_num_inliers, as a text file
+    // (image names, then one "idx1 idx2" line per match, then a blank line).
+    const std::string list_path = (fs::path(folder) / "raw_matches.txt").string();
+    std::unordered_map<PairId, SynthPairMatches> labelled;
+    {
+      std::ofstream list(list_path);
+      ThrowUnless(list.good(), StrCat("cannot write ", list_path));
+      ForEachSynthPair(scene, /*verify=*/false, [&](const SynthPair& pair) {
+        ++summary.num_matched_pairs;
+        const SynthPairMatches& m = pair.matches;
+        if (m.matches.size() < min_inliers) return;
+        list << scene.images[m.pair.image_id1 - 1].name << ' '
+             << scene.images[m.pair.image_id2 - 1].name << '\n';
+        for (const FeatureMatch& fm : m.matches) {
+          list << fm.idx1 << ' ' << fm.idx2 << '\n';
+        }
+        list << '\n';
+        labelled[ImagePairToPairId(m.pair.image_id1, m.pair.image_id2)] = m;
+      });
+      ThrowUnless(list.good(), StrCat("cannot write ", list_path));
+    }
+    VerifyWithColmap(options, folder, list_path);
+    fs::remove(list_path);
+    const Database database(database_path);
+    for (const VerifiedPair& vp : database.ReadVerifiedPairs(
+             static_cast<uint32_t>(min_inliers))) {
+      ++summary.num_verified_pairs;
+      summary.num_inlier_matches += vp.num_inliers;
+      const TwoViewGeometry g =
+          database.ReadTwoViewGeometry(vp.pair.image_id1, vp.pair.image_id2);
+      auto it = labelled.find(ImagePairToPairId(vp.pair.image_id1, vp.pair.image_id2));
+      if (it != labelled.end() && IsDoppelgangerInlierSet(it->second, g.inlier_matches)) {
+        ++summary.num_doppelganger_pairs;
+      }
+    }
+  }
+  summary.pairs_seconds = timer.ElapsedSeconds();
+  HISFM_LOG_INFO(
+      "{} matched pairs, {} verified pairs ({} doppelganger), {} inlier "
+      "matches ({:.1f} s)",
+      summary.num_matched_pairs, summary.num_verified_pairs,
+      summary.num_doppelganger_pairs, summary.num_inlier_matches,
+      summary.pairs_seconds);
+
+  summary.total_seconds = total_timer.ElapsedSeconds();
+  nlohmann::json json;
+  json["scene"] = options.scene;
+  json["num_images"] = options.num_images;
+  json["seed"] = options.seed;
+  json["two_view_geometry"] = options.two_view_geometry;
+  json["camera_model"] = options.camera_model;
+  json["object_density"] = options.object_density;
+  json["background_density"] = options.background_density;
+  json["street_block_houses"] = options.street_block_houses;
+  json["keypoint_noise"] = options.keypoint_noise;
+  json["outlier_ratio"] = options.outlier_ratio;
+  json["max_view_angle"] = options.max_view_angle;
+  json["num_keypoints"] = summary.num_keypoints;
+  json["num_points3D"] = summary.num_points3D;
+  json["num_matched_pairs"] = summary.num_matched_pairs;
+  json["num_verified_pairs"] = summary.num_verified_pairs;
+  json["num_doppelganger_pairs"] = summary.num_doppelganger_pairs;
+  json["num_inlier_matches"] = summary.num_inlier_matches;
+  json["seconds"] = summary.total_seconds;
+  WriteFileAtomically((fs::path(folder) / "synth_summary.json").string(),
+                      json.dump(2) + "\n");
+  output.Commit();
+  HISFM_LOG_INFO("Wrote {} ({:.1f} s)", output_path, summary.total_seconds);
+  return summary;
+}
+
+}  // namespace hisfm

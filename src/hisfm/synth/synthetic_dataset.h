@@ -1,0 +1,55 @@
+// Writes a synthetic scene as a COLMAP workspace:
+//   DIR/database.db        cameras, images, keypoints, matches and
+//                          two_view_geometries (COLMAP 3.8 layout)
+//   DIR/ground_truth/      the true model (cameras.bin, images.bin,
+//                          points3D.bin), same image ids and names
+//   DIR/images/            empty (`colmap mapper` wants an existing folder)
+//   DIR/synth_summary.json the options and the counts of SynthDatasetSummary
+// With two_view_geometry = "colmap" the raw matches are verified by
+// `colmap matches_importer --match_type raw` (its log is kept as
+// DIR/matches_importer.log); otherwise they are verified directly
+// (hisfm/synth/synthetic_matches.h).
+#pragma once
+
+#include <string>
+
+#include "hisfm/synth/synth_options.h"
+#include "hisfm/synth/synthetic_matches.h"
+
+namespace hisfm {
+
+/// What was written.
+struct SynthDatasetSummary {
+  size_t num_images = 0;
+  size_t num_keypoints = 0;
+  /// Points of the ground truth (observed by at least two images).
+  size_t num_points3D = 0;
+  /// Pairs with at least one putative match.
+  size_t num_matched_pairs = 0;
+  /// Pairs in two_view_geometries with at least min_num_inliers inliers.
+  size_t num_verified_pairs = 0;
+  /// Verified doppelganger pairs: direct mode, the kept epipolar geometry is
+  /// a doppelganger one; colmap mode, most of COLMAP's inliers are
+  /// doppelganger matches (IsDoppelgangerInlierSet).
+  size_t num_doppelganger_pairs = 0;
+  /// Total number of inlier matches of the verified pairs.
+  size_t num_inlier_matches = 0;
+  /// Seconds spent generating images, matching and verifying (with database
+  /// writes), and in total.
+  double scene_seconds = 0.0;
+  double pairs_seconds = 0.0;
+  double total_seconds = 0.0;
+};
+
+/// Generates options.scene and writes it into `output_path`, which must not
+/// exist or be an empty folder (the result appears atomically). Throws
+/// hisfm::Error on invalid options, I/O errors or a failing colmap call.
+SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
+                                          const std::string& output_path);
+
+/// Whether a verified pair is a doppelganger: most of its inliers (given by
+/// the pair's labelled putative matches) relate different points.
+bool IsDoppelgangerInlierSet(const SynthPairMatches& matches,
+                             const std::vector<FeatureMatch>& inliers);
+
+}  // namespace hisfm

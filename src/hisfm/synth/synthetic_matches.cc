@@ -1,0 +1,352 @@
+#include "hisfm/synth/synthetic_matches.h"
+
+#include <algorithm>
+#include <cmath>
+#include <future>
+#include <map>
+#include <numeric>
+#include <unordered_map>
+
+#include "hisfm/synth/synth_parallel.h"
+#include "hisfm/synth/synth_random.h"
+
+namespace hisfm {
+namespace {
+
+// Symmetry elements need this many matches to be tried as a hypothesis.
+constexpr size_t kMinHypothesisSupport = 5;
+// Pairs matched and verified per parallel batch.
+constexpr size_t kBatchSize = 1024;
+
+Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+// Squared Sampson error of a correspondence under F (pixels^2).
+double SquaredSampsonError(const Eigen::Matrix3d& F, const Eigen::Vector2d& x1,
+                           const Eigen::Vector2d& x2) {
+  const Eigen::Vector3d p1 = x1.homogeneous();
+  const Eigen::Vector3d p2 = x2.homogeneous();
+  const Eigen::Vector3d Fx1 = F * p1;
+  const Eigen::Vector3d Ftx2 = F.transpose() * p2;
+  const double num = p2.dot(Fx1);
+  const double den = Fx1.x() * Fx1.x() + Fx1.y() * Fx1.y() +
+                     Ftx2.x() * Ftx2.x() + Ftx2.y() * Ftx2.y();
+  if (!(den > 0.0)) return std::numeric_limits<double>::infinity();
+  return num * num / den;
+}
+
+struct Candidate {
+  float cosine = -2.0f;
+  uint32_t index = 0;
+};
+
+}  // namespace
+
+size_t SynthPairMatches::NumTrueMatches() const {
+  return std::count(labels.begin(), labels.end(), 0);
+}
+
+size_t SynthPairMatches::NumDoppelgangerMatches() const {
+  return std::count_if(labels.begin(), labels.end(), [](int label) {
+    return label != 0 && label != kOutlierMatchLabel;
+  });
+}
+
+std::vector<ImagePair> FindSynthCandidatePairs(const SyntheticScene& scene) {
+  const SceneLayout& layout = scene.layout;
+  const size_t n = layout.cams_from_world.size();
+  const double r = layout.pair_radius;
+  std::vector<Eigen::Vector3d> centers(n);
+  for (size_t i = 0; i < n; ++i) {
+    centers[i] = layout.cams_from_world[i].Inverse().translation;
+  }
+  auto cell_of = [r](const Eigen::Vector3d& x) {
+    return Eigen::Vector3i(static_cast<int>(std::floor(x.x() / r)),
+                           static_cast<int>(std::floor(x.y() / r)),
+                           static_cast<int>(std::floor(x.z() / r)));
+  };
+  auto key_of = [](const Eigen::Vector3i& c) {
+    return (static_cast<uint64_t>(static_cast<uint32_t>(c.x()) & 0x1fffff) << 42) |
+           (static_cast<uint64_t>(static_cast<uint32_t>(c.y()) & 0x1fffff) << 21) |
+           (static_cast<uint64_t>(static_cast<uint32_t>(c.z()) & 0x1fffff));
+  };
+  std::unordered_map<uint64_t, std::vector<uint32_t>> grid;
+  for (uint32_t i = 0; i < n; ++i) grid[key_of(cell_of(centers[i]))].push_back(i);
+
+  const std::vector<int> elements = layout.symmetry.Elements();
+  std::vector<std::vector<uint64_t>> per_image(n);
+  SynthParallelFor(n, scene.options.num_threads, [&](size_t j) {
+    std::vector<uint64_t>& out = per_image[j];
+    for (int k : elements) {
+      const Eigen::Vector3d y = layout.symmetry.Transform(-k) * centers[j];
+      const Eigen::Vector3i c = cell_of(y);
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dz = -1; dz <= 1; ++dz) {
+            auto it = grid.find(key_of(c + Eigen::Vector3i(dx, dy, dz)));
+            if (it == grid.end()) continue;
+            for (uint32_t i : it->second) {
+              if (i == j || (centers[i] - y).norm() > r) continue;
+              const uint64_t a = std::min<uint64_t>(i, j);
+              const uint64_t b = std::max<uint64_t>(i, j);
+              out.push_back((a << 32) | b);
+            }
+          }
+        }
+      }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  }, 16);
+
+  std::vector<uint64_t> all;
+  for (std::vector<uint64_t>& v : per_image) {
+    all.insert(all.end(), v.begin(), v.end());
+    std::vector<uint64_t>().swap(v);
+  }
+  std::sort(all.begin(), all.end());
+  all.erase(std::unique(all.begin(), all.end()), all.end());
+  std::vector<ImagePair> pairs;
+  pairs.reserve(all.size());
+  for (uint64_t key : all) {
+    pairs.emplace_back(static_cast<ImageId>((key >> 32) + 1),
+                       static_cast<ImageId>((key & 0xffffffffULL) + 1));
+  }
+  return pairs;
+}
+
+SynthPairMatches MatchSynthImages(const SyntheticScene& scene, ImageId id1,
+                                  ImageId id2) {
+  SynthPairMatches result;
+  result.pair = ImagePair(id1, id2);
+  const SynthImage& image1 = scene.images.at(result.pair.image_id1 - 1);
+  const SynthImage& image2 = scene.images.at(result.pair.image_id2 - 1);
+  const SceneLayout& layout = scene.layout;
+  const SynthOptions& options = scene.options;
+  const float min_cosine =
+      static_cast<float>(std::cos(options.max_view_angle * M_PI / 180.0));
+  const float max_scale = static_cast<float>(options.max_scale_ratio);
+
+  auto similarity = [&](uint32_t f1, uint32_t f2) -> float {
+    const SynthFeature& a = image1.features[f1];
+    const SynthFeature& b = image2.features[f2];
+    const float c = a.local_view.dot(b.local_view);
+    if (c < min_cosine) return -2.0f;
+    const float s = a.distance > b.distance ? a.distance / b.distance
+                                            : b.distance / a.distance;
+    if (s > max_scale) return -2.0f;
+    return c;
+  };
+  auto add_match = [&](uint32_t f1, uint32_t f2) {
+    const uint32_t p1 = image1.features[f1].point_index;
+    const uint32_t p2 = image2.features[f2].point_index;
+    result.matches.push_back({f1, f2});
+    result.labels.push_back(
+        p1 == p2 ? 0
+                 : layout.symmetry.Relation(layout.points[p1].replica,
+                                            layout.points[p2].replica));
+  };
+
+  // Merge-join of the two sorted appearance lists.
+  const auto& list1 = image1.appearance_index;
+  const auto& list2 = image2.appearance_index;
+  size_t a = 0, b = 0;
+  std::vector<Candidate> best1, best2;
+  while (a < list1.size() && b < list2.size()) {
+    if (list1[a].first < list2[b].first) {
+      ++a;
+      continue;
+    }
+    if (list2[b].first < list1[a].first) {
+      ++b;
+      continue;
+    }
+    const uint32_t appearance = list1[a].first;
+    size_t a_end = a, b_end = b;
+    while (a_end < list1.size() && list1[a_end].first == appearance) ++a_end;
+    while (b_end < list2.size() && list2[b_end].first == appearance) ++b_end;
+    if (a_end - a == 1 && b_end - b == 1) {
+      if (similarity(list1[a].second, list2[b].second) > -1.0f) {
+        add_match(list1[a].second, list2[b].second);
+      }
+    } else {
+      // Mutual best candidates by viewing-ray similarity.
+      best1.assign(a_end - a, Candidate());
+      best2.assign(b_end - b, Candidate());
+      for (size_t x = a; x < a_end; ++x) {
+        for (size_t y = b; y < b_end; ++y) {
+          const float s = similarity(list1[x].second, list2[y].second);
+          if (s < -1.0f) continue;
+          if (s > best1[x - a].cosine) best1[x - a] = {s, static_cast<uint32_t>(y - b)};
+          if (s > best2[y - b].cosine) best2[y - b] = {s, static_cast<uint32_t>(x - a)};
+        }
+      }
+      for (size_t x = a; x < a_end; ++x) {
+        const Candidate& c = best1[x - a];
+        if (c.cosine < -1.0f || best2[c.index].index != x - a) continue;
+        add_match(list1[x].second, list2[b + c.index].second);
+      }
+    }
+    a = a_end;
+    b = b_end;
+  }
+
+  // Random wrong matches between features not matched yet.
+  if (!result.matches.empty() && options.outlier_ratio > 0.0) {
+    SynthRandom rng(DeriveSeed(
+        options.seed, 4,
+        ImagePairToPairId(result.pair.image_id1, result.pair.image_id2)));
+    const size_t num_outliers = static_cast<size_t>(std::floor(
+        options.outlier_ratio * result.matches.size() + rng.Uniform()));
+    std::vector<bool> used1(image1.features.size(), false);
+    std::vector<bool> used2(image2.features.size(), false);
+    for (const FeatureMatch& m : result.matches) {
+      used1[m.idx1] = true;
+      used2[m.idx2] = true;
+    }
+    for (size_t k = 0; k < num_outliers; ++k) {
+      for (int attempt = 0; attempt < 20; ++attempt) {
+        const uint32_t f1 = rng.UniformInt(static_cast<uint32_t>(used1.size()));
+        const uint32_t f2 = rng.UniformInt(static_cast<uint32_t>(used2.size()));
+        if (used1[f1] || used2[f2]) continue;
+        used1[f1] = used2[f2] = true;
+        result.matches.push_back({f1, f2});
+        result.labels.push_back(kOutlierMatchLabel);
+        break;
+      }
+    }
+  }
+
+  // Order by the first keypoint index.
+  std::vector<size_t> order(result.matches.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+    return result.matches[x].idx1 < result.matches[y].idx1;
+  });
+  std::vector<FeatureMatch> matches(order.size());
+  std::vector<int> labels(order.size());
+  for (size_t k = 0; k < order.size(); ++k) {
+    matches[k] = result.matches[order[k]];
+    labels[k] = result.labels[order[k]];
+  }
+  result.matches.swap(matches);
+  result.labels.swap(labels);
+  return result;
+}
+
+Rigid3d SynthHypothesisPose(const SyntheticScene& scene, ImageId id1,
+                            ImageId id2, int k) {
+  const Rigid3d& cam1_from_world = scene.images.at(id1 - 1).cam_from_world;
+  const Rigid3d& cam2_from_world = scene.images.at(id2 - 1).cam_from_world;
+  return cam2_from_world * scene.layout.symmetry.Transform(k) *
+         cam1_from_world.Inverse();
+}
+
+SynthVerification VerifySynthMatches(const SyntheticScene& scene,
+                                     const SynthPairMatches& matches) {
+  const SynthOptions& options = scene.options;
+  SynthVerification result;
+  result.geometry.pair = matches.pair;
+  if (matches.matches.empty()) return result;
+
+  // Hypotheses: the true geometry and every well-supported symmetry element.
+  std::map<int, size_t> support;
+  for (int label : matches.labels) {
+    if (label != kOutlierMatchLabel && label != 0) ++support[label];
+  }
+  std::vector<int> hypotheses = {0};
+  for (const auto& [label, count] : support) {
+    if (count >= kMinHypothesisSupport) hypotheses.push_back(label);
+  }
+
+  const SynthImage& image1 = scene.images.at(matches.pair.image_id1 - 1);
+  const SynthImage& image2 = scene.images.at(matches.pair.image_id2 - 1);
+  const Eigen::Matrix3d K_inv = scene.K.inverse();
+  const double max_sq_error = options.max_error * options.max_error;
+
+  std::vector<bool> inliers, best_inliers;
+  size_t best_count = 0;
+  for (int k : hypotheses) {
+    const Rigid3d pose = SynthHypothesisPose(scene, matches.pair.image_id1,
+                                             matches.pair.image_id2, k);
+    const double baseline = pose.translation.norm();
+    if (baseline < 1e-9) continue;
+    const Eigen::Vector3d t = pose.translation / baseline;
+    const Eigen::Matrix3d E = CrossMatrix(t) * pose.rotation.toRotationMatrix();
+    const Eigen::Matrix3d F = K_inv.transpose() * E * K_inv;
+    inliers.assign(matches.matches.size(), false);
+    size_t count = 0;
+    for (size_t m = 0; m < matches.matches.size(); ++m) {
+      const FeatureMatch& fm = matches.matches[m];
+      const Eigen::Vector2d x1 = image1.features[fm.idx1].xy.cast<double>();
+      const Eigen::Vector2d x2 = image2.features[fm.idx2].xy.cast<double>();
+      if (SquaredSampsonError(F, x1, x2) <= max_sq_error) {
+        inliers[m] = true;
+        ++count;
+      }
+    }
+    if (count > best_count) {
+      best_count = count;
+      best_inliers = inliers;
+      result.hypothesis = k;
+      result.geometry.E = E;
+      result.geometry.F = F / F.norm();
+      result.geometry.qvec = Eigen::Vector4d(pose.rotation.w(), pose.rotation.x(),
+                                             pose.rotation.y(), pose.rotation.z());
+      result.geometry.tvec = t;
+    }
+  }
+
+  result.verified =
+      best_count >= static_cast<size_t>(options.min_num_inliers) &&
+      best_count >= options.min_inlier_ratio * matches.matches.size();
+  if (!result.verified) {
+    result.hypothesis = 0;
+    return result;
+  }
+  result.geometry.config = static_cast<int>(TwoViewConfig::kCalibrated);
+  result.geometry.inlier_matches.reserve(best_count);
+  for (size_t m = 0; m < matches.matches.size(); ++m) {
+    if (!best_inliers[m]) continue;
+    result.geometry.inlier_matches.push_back(matches.matches[m]);
+    if (matches.labels[m] == 0) ++result.num_true_inliers;
+  }
+  return result;
+}
+
+void ForEachSynthPair(const SyntheticScene& scene, bool verify,
+                      const std::function<void(const SynthPair&)>& fn) {
+  const std::vector<ImagePair> candidates = FindSynthCandidatePairs(scene);
+  const size_t num_batches = (candidates.size() + kBatchSize - 1) / kBatchSize;
+  auto compute = [&](size_t batch) {
+    const size_t begin = batch * kBatchSize;
+    const size_t end = std::min(candidates.size(), begin + kBatchSize);
+    std::vector<SynthPair> pairs(end - begin);
+    SynthParallelFor(end - begin, scene.options.num_threads, [&](size_t k) {
+      const ImagePair& pair = candidates[begin + k];
+      SynthPair& out = pairs[k];
+      out.matches = MatchSynthImages(scene, pair.image_id1, pair.image_id2);
+      if (verify && !out.matches.matches.empty()) {
+        out.verification = VerifySynthMatches(scene, out.matches);
+      }
+    }, 8);
+    return pairs;
+  };
+  if (num_batches == 0) return;
+  std::vector<SynthPair> current = compute(0);
+  for (size_t batch = 0; batch < num_batches; ++batch) {
+    std::future<std::vector<SynthPair>> next;
+    if (batch + 1 < num_batches) {
+      next = std::async(std::launch::async, compute, batch + 1);
+    }
+    for (const SynthPair& pair : current) {
+      if (!pair.matches.matches.empty()) fn(pair);
+    }
+    if (next.valid()) current = next.get();
+  }
+}
+
+}  // namespace hisfm
