@@ -215,6 +215,7 @@ int main(int argc, char** argv) {
     HierarchicalMapperOptions options;
     options.verifier.verifier = verifier;
     std::ostringstream table;
+    size_t printed = 0;
     table << "| scene | COLMAP ✓/× | #reg | pairs ≤5° | #points | err (px) | "
              "len | time (s) | HiSfM ✓/× | #reg | pairs ≤5° | #points | err "
              "(px) | len | time (s) | verified / pairs | time ratio |\n"
@@ -250,7 +251,9 @@ int main(int argc, char** argv) {
                     ? Fmt(hisfm.seconds / colmap.seconds, 2)
                     : std::string("-"))
             << " |\n";
-      std::cout << table.str() << std::flush;
+      const std::string text = table.str();
+      std::cout << text.substr(printed) << std::flush;
+      printed = text.size();
     }
     table << "\nTotal mapper time: COLMAP " << Fmt(sum_colmap, 1)
           << " s, HiSfM " << Fmt(sum_hisfm, 1) << " s, ratio "

@@ -1,18 +1,60 @@
 // `hisfm model_stats`: statistics of a COLMAP model (like colmap
-// model_analyzer), and `hisfm model_converter`: binary <-> text.
+// model_analyzer), `hisfm model_converter`: binary <-> text, and
+// `hisfm model_export`: points and camera centres as PLY for viewers.
 #include <CLI/CLI.hpp>
+#include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "hisfm/exe/command.h"
 #include "hisfm/io/model.h"
+#include "hisfm/report/model_export.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/logging.h"
+
+namespace fs = std::filesystem;
 
 namespace hisfm {
 namespace {
+
+bool IsModelFolder(const fs::path& path) {
+  std::error_code ec;
+  return fs::is_regular_file(path / "cameras.bin", ec) ||
+         fs::is_regular_file(path / "cameras.txt", ec);
+}
+
+// The model folders at `path`: the folder itself if it holds a model, else
+// its numbered sub-folders (0, 1, ...) that do, in numeric order.
+std::vector<std::string> ModelFolders(const std::string& path) {
+  CheckDirectoryExists(path, "model folder");
+  if (IsModelFolder(path)) return {path};
+  std::vector<std::pair<long, std::string>> found;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(path, ec)) {
+    const std::string name = entry.path().filename().string();
+    const bool number =
+        !name.empty() && name.size() < 10 &&
+        std::all_of(name.begin(), name.end(),
+                    [](char c) { return c >= '0' && c <= '9'; });
+    if (number && entry.is_directory(ec) && IsModelFolder(entry.path())) {
+      found.emplace_back(std::stol(name), entry.path().string());
+    }
+  }
+  ThrowUnless(!found.empty(),
+              StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
+                     "numbered model folders) in ",
+                     path));
+  std::sort(found.begin(), found.end());
+  std::vector<std::string> out;
+  for (const auto& [n, p] : found) out.push_back(p);
+  return out;
+}
 
 int RunModelStats(int argc, char** argv) {
   std::string input_path;
@@ -20,7 +62,9 @@ int RunModelStats(int argc, char** argv) {
   CLI::App app(
       "Prints the statistics of a COLMAP model folder (binary or text): "
       "cameras, registered images, points, observations, mean track "
-      "length, mean observations per image and mean reprojection error.");
+      "length, mean observations per image and mean reprojection error. "
+      "A folder of numbered models (sparse/) gives one block per model.",
+      "hisfm model_stats");
   app.add_option("--input_path", input_path, "Model folder")->required();
   app.add_flag("--json", json, "Print JSON");
   try {
@@ -28,34 +72,22 @@ int RunModelStats(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  const Reconstruction model = ReadModel(input_path);
-  const size_t num_observations = model.NumObservations();
-  const double mean_observations_per_image =
-      model.images.empty() ? 0.0
-                           : static_cast<double>(num_observations) /
-                                 static_cast<double>(model.images.size());
-  if (json) {
-    nlohmann::json j;
-    j["input_path"] = input_path;
-    j["num_cameras"] = model.cameras.size();
-    j["num_images"] = model.NumRegImages();
-    j["num_points3D"] = model.NumPoints3D();
-    j["num_observations"] = num_observations;
-    j["mean_track_length"] = model.MeanTrackLength();
-    j["mean_observations_per_image"] = mean_observations_per_image;
-    j["mean_reprojection_error"] = model.MeanReprojectionError();
-    std::printf("%s\n", j.dump(2).c_str());
-    return 0;
+  const std::vector<std::string> folders = ModelFolders(input_path);
+  nlohmann::json all = nlohmann::json::array();
+  for (const std::string& folder : folders) {
+    const ModelStatistics stats = ComputeModelStatistics(ReadModel(folder));
+    if (json) {
+      nlohmann::json j = ToJson(stats);
+      j["input_path"] = folder;
+      all.push_back(j);
+    } else {
+      if (folders.size() > 1) std::printf("model: %s\n", folder.c_str());
+      std::printf("%s", FormatModelStatistics(stats).c_str());
+    }
   }
-  std::printf("cameras: %zu\n", model.cameras.size());
-  std::printf("images: %zu\n", model.NumRegImages());
-  std::printf("points: %zu\n", model.NumPoints3D());
-  std::printf("observations: %zu\n", num_observations);
-  std::printf("mean track length: %.6f\n", model.MeanTrackLength());
-  std::printf("mean observations per image: %.6f\n",
-              mean_observations_per_image);
-  std::printf("mean reprojection error: %.6f px\n",
-              model.MeanReprojectionError());
+  if (json) {
+    std::printf("%s\n", (all.size() == 1 ? all[0] : all).dump(2).c_str());
+  }
   return 0;
 }
 
@@ -66,7 +98,8 @@ int RunModelConverter(int argc, char** argv) {
   CLI::App app(
       "Converts a COLMAP model folder between binary and text. Binary output "
       "keeps the input's bytes where nothing changed; text output is what "
-      "colmap model_converter writes.");
+      "colmap model_converter writes.",
+      "hisfm model_converter");
   app.add_option("--input_path", input_path, "Model folder")->required();
   app.add_option("--output_path", output_path,
                  "Existing output folder (files are replaced)")
@@ -90,6 +123,59 @@ int RunModelConverter(int argc, char** argv) {
   return 0;
 }
 
+// Parses "R,G,B" (0-255 each).
+std::array<uint8_t, 3> ParseColor(const std::string& text) {
+  std::array<uint8_t, 3> rgb{};
+  unsigned r = 0, g = 0, b = 0;
+  char extra = 0;
+  ThrowUnless(std::sscanf(text.c_str(), "%u,%u,%u%c", &r, &g, &b, &extra) ==
+                      3 &&
+                  r < 256 && g < 256 && b < 256,
+              StrCat("invalid colour '", text, "': use R,G,B with 0-255"));
+  rgb = {static_cast<uint8_t>(r), static_cast<uint8_t>(g),
+         static_cast<uint8_t>(b)};
+  return rgb;
+}
+
+int RunModelExport(int argc, char** argv) {
+  std::string input_path, output_path;
+  std::string format = "binary";
+  std::string camera_color = "255,0,0";
+  bool no_points = false, no_cameras = false;
+  CLI::App app(
+      "Writes a COLMAP model (binary or text) as a PLY point cloud for "
+      "viewers such as MeshLab or CloudCompare: the 3D points with their "
+      "colours, then the camera centres as vertices of --camera_color.",
+      "hisfm model_export");
+  app.add_option("--input_path", input_path, "Model folder")->required();
+  app.add_option("--output_path", output_path, "PLY file to write")
+      ->required();
+  app.add_option("--format", format, "binary or ascii")
+      ->check(CLI::IsMember({"binary", "ascii"}))
+      ->capture_default_str();
+  app.add_option("--camera_color", camera_color,
+                 "Colour of the camera centres, R,G,B")
+      ->capture_default_str();
+  app.add_flag("--no_points", no_points, "Leave out the 3D points");
+  app.add_flag("--no_cameras", no_cameras, "Leave out the camera centres");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  PlyExportOptions options;
+  options.binary = format == "binary";
+  options.include_points = !no_points;
+  options.include_cameras = !no_cameras;
+  options.camera_color = ParseColor(camera_color);
+  const Reconstruction model = ReadModel(input_path);
+  const PlyExportSummary summary =
+      WriteModelPly(model, output_path, options);
+  HISFM_LOG_INFO("wrote {} points and {} camera centres to {}",
+                 summary.num_points, summary.num_cameras, output_path);
+  return 0;
+}
+
 }  // namespace
 
 HISFM_REGISTER_COMMAND("model_stats",
@@ -98,5 +184,8 @@ HISFM_REGISTER_COMMAND("model_stats",
 HISFM_REGISTER_COMMAND("model_converter",
                        "convert a COLMAP model between binary and text",
                        RunModelConverter);
+HISFM_REGISTER_COMMAND("model_export",
+                       "write a model's points and cameras as PLY",
+                       RunModelExport);
 
 }  // namespace hisfm

@@ -60,9 +60,13 @@ void AddHierarchicalMapperFlags(CLI::App& app,
   app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
                  "Bridges per call of a command verifier")
       ->capture_default_str();
+  app.add_option("--HiSfM.attach_local_only", o->attach_local_only,
+                 "Attach leaves with local bundle adjustment only, then one "
+                 "global bundle adjustment")
+      ->capture_default_str();
   app.add_option("--HiSfM.global_bundle_adjustment",
                  o->global_bundle_adjustment,
-                 "Run one global bundle adjustment at the end")
+                 "Run an extra colmap bundle_adjuster at the end")
       ->capture_default_str();
   app.add_option("--HiSfM.min_model_size", o->min_model_size,
                  "Components with fewer images are not reconstructed")

@@ -662,7 +662,6 @@ FeaturePipelineResult RunFeaturePipeline(
     const FeaturePipelineOptions& options) {
   options.Check();
   FeaturePipelineResult result;
-  LogHeading(StrCat("Scanning ", image_path));
   result.scan = ScanImageFolder(image_path);
   const ImageFolderScan& scan = result.scan;
   const std::string colmap_version = CheckColmapAvailable(options.colmap);
@@ -701,8 +700,8 @@ FeaturePipelineResult RunFeaturePipeline(
   }
   result.camera_mode =
       ResolveCameraMode(ParseCameraMode(options.camera_mode), scan.images);
-  HISFM_LOG_INFO("{} readable image(s), camera mode '{}'", scan.images.size(),
-                 CameraModeName(result.camera_mode));
+  HISFM_LOG_INFO("{}: {} readable image(s), camera mode '{}'", image_path,
+                 scan.images.size(), CameraModeName(result.camera_mode));
 
   std::string list_text;
   std::ostringstream images_record;

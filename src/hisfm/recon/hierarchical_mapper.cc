@@ -95,6 +95,17 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   return in;
 }
 
+// Appends `flag value` unless the user's mapper arguments already set flag.
+void AddDefaultFlag(const std::vector<std::string>& user,
+                    const std::string& flag, const std::string& value,
+                    std::vector<std::string>* args) {
+  for (const std::string& a : user) {
+    if (a == flag) return;
+  }
+  args->push_back(flag);
+  args->push_back(value);
+}
+
 void WriteImageList(const std::vector<ImageId>& ids,
                     const std::unordered_map<ImageId, std::string>& names,
                     const std::string& path) {
@@ -257,6 +268,16 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
             dir + "/images.txt"};
     args.insert(args.end(), options.mapper_args.begin(),
                 options.mapper_args.end());
+    if (options.attach_local_only) {
+      // No periodic global bundle adjustment while attaching: local bundle
+      // adjustment after each registration, one global one at the end.
+      for (const char* flag :
+           {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
+        AddDefaultFlag(options.mapper_args, flag, "1000000", &args);
+      for (const char* flag :
+           {"--Mapper.ba_global_images_freq", "--Mapper.ba_global_points_freq"})
+        AddDefaultFlag(options.mapper_args, flag, "1000000000", &args);
+    }
     const double t_attach = RunColmap(options.colmap, args, log);
     attach_seconds += t_attach;
     std::string attached = dir + "/attached";

@@ -31,8 +31,13 @@ struct HierarchicalMapperOptions {
   VerifierOptions verifier;
   /// The colmap executable.
   ColmapRunnerOptions colmap;
-  /// Run one global bundle adjustment after the attachment.
-  bool global_bundle_adjustment = true;
+  /// Attach the leaves with local bundle adjustment only: colmap's periodic
+  /// global bundle adjustments are switched off for the attach run, whose
+  /// final global bundle adjustment is then the single one of the paper.
+  bool attach_local_only = true;
+  /// Run an extra `colmap bundle_adjuster` after the attachment (the attach
+  /// run already ends with a global bundle adjustment).
+  bool global_bundle_adjustment = false;
   /// Components with fewer images are not reconstructed.
   int min_model_size = 3;
   /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.

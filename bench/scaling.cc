@@ -1,0 +1,219 @@
+// Scaling benchmark on synthetic street scenes of growing size: time and
+// peak memory of the graph stage (read the database, build the verified
+// hierarchy: `hisfm view_graph`), and of the mapper stage (`hisfm mapper`)
+// next to vanilla `colmap mapper` where that finishes within a time budget.
+// Every stage runs as its own process, so peak memory is that process's
+// maximum resident set. Prints a Markdown table and the growth exponents
+// (slope of log time against log n).
+//
+//   build/bench/scaling [--sizes 100,300,1000,3000,5000] [--pairs_per_image 200]
+//                       [--mapper_max_images 1000] [--budget_seconds 900]
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "hisfm/synth/synthetic_dataset.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/timer.h"
+
+namespace fs = std::filesystem;
+using namespace hisfm;
+
+namespace {
+
+struct ProcessResult {
+  bool finished = false;  // false: killed at the budget
+  int exit_code = -1;
+  double seconds = 0;
+  double peak_mb = 0;
+};
+
+// Runs argv with output to log; kills it after `budget` seconds.
+ProcessResult RunMeasured(const std::vector<std::string>& argv,
+                          const std::string& log, double budget) {
+  ProcessResult r;
+  Timer timer;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    FILE* f = std::fopen(log.c_str(), "w");
+    if (f) {
+      dup2(fileno(f), STDOUT_FILENO);
+      dup2(fileno(f), STDERR_FILENO);
+    }
+    std::vector<char*> args;
+    for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execvp(args[0], args.data());
+    _exit(127);
+  }
+  int status = 0;
+  struct rusage usage {};
+  while (true) {
+    const pid_t done = wait4(pid, &status, WNOHANG, &usage);
+    if (done == pid) break;
+    if (timer.ElapsedSeconds() > budget) {
+      kill(pid, SIGKILL);
+      wait4(pid, &status, 0, &usage);
+      r.seconds = timer.ElapsedSeconds();
+      r.peak_mb = usage.ru_maxrss / 1024.0;
+      return r;
+    }
+    usleep(20000);
+  }
+  r.finished = true;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+  r.seconds = timer.ElapsedSeconds();
+  r.peak_mb = usage.ru_maxrss / 1024.0;
+  return r;
+}
+
+std::string Fmt(double v, int digits) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(digits);
+  out << v;
+  return out.str();
+}
+
+// Least-squares slope of log(y) against log(x).
+double GrowthExponent(const std::vector<double>& x,
+                      const std::vector<double>& y) {
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  size_t n = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (!(y[i] > 0)) continue;
+    const double lx = std::log(x[i]), ly = std::log(y[i]);
+    sx += lx;
+    sy += ly;
+    sxx += lx * lx;
+    sxy += lx * ly;
+    ++n;
+  }
+  if (n < 2) return NAN;
+  return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("HiSfM scaling benchmark on synthetic streets");
+  std::string sizes_arg = "100,300,1000,3000,5000";
+  std::string work_path = "/tmp/hisfm-scaling";
+  std::string hisfm = fs::path(argv[0]).parent_path().parent_path() / "hisfm";
+  int mapper_max_images = 1000;
+  double budget = 900;
+  int street_block_houses = 80;
+  app.add_option("--sizes", sizes_arg, "Image counts")->capture_default_str();
+  app.add_option("--work_path", work_path, "Scratch folder (emptied)")
+      ->capture_default_str();
+  app.add_option("--hisfm", hisfm, "The hisfm executable")
+      ->capture_default_str();
+  app.add_option("--street_block_houses", street_block_houses,
+                 "Houses per repeated block: 80 gives about a million "
+                 "verified pairs at 5,000 images")
+      ->capture_default_str();
+  app.add_option("--mapper_max_images", mapper_max_images,
+                 "Run the mapper stage (hisfm and colmap) up to this size")
+      ->capture_default_str();
+  app.add_option("--budget_seconds", budget,
+                 "Time budget of each mapper run (killed after it)")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    fs::remove_all(work_path);
+    fs::create_directories(work_path);
+    std::vector<double> ns, graph_t, graph_mb, hisfm_t, colmap_t;
+    std::ostringstream table;
+    size_t printed = 0;
+    table << "| images | verified pairs | generate (s) | graph stage (s) | "
+             "graph peak (MB) | hisfm mapper (s) | hisfm peak (MB) | colmap "
+             "mapper (s) | colmap peak (MB) | ratio |\n"
+          << "|---|---|---|---|---|---|---|---|---|---|\n";
+    std::stringstream list(sizes_arg);
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const int n = std::stoi(item);
+      SynthOptions options;
+      options.scene = "street";
+      options.num_images = n;
+      options.seed = 1;
+      options.write_matches = false;
+      options.street_block_houses = street_block_houses;
+      const std::string dir = work_path + "/n" + std::to_string(n);
+      std::cerr << "== n = " << n << ": generating\n";
+      const SynthDatasetSummary synth = WriteSyntheticDataset(options, dir);
+      const std::string db = dir + "/database.db";
+
+      std::cerr << "== n = " << n << ": graph stage\n";
+      const ProcessResult graph = RunMeasured(
+          {hisfm, "view_graph", "--database_path", db, "--output_path",
+           dir + "/view_graph.json", "--log_level", "warn"},
+          dir + "/view_graph.log", 3600);
+      ThrowUnless(graph.finished && graph.exit_code == 0,
+                  StrCat("hisfm view_graph failed, see ", dir,
+                         "/view_graph.log"));
+      const nlohmann::json vg =
+          nlohmann::json::parse(ReadTextFile(dir + "/view_graph.json"));
+      const double graph_seconds =
+          vg["timings"]["read_database"].get<double>() +
+          vg["timings"]["build_hierarchy"].get<double>();
+
+      ProcessResult h, c;
+      if (n <= mapper_max_images) {
+        std::cerr << "== n = " << n << ": hisfm mapper\n";
+        h = RunMeasured({hisfm, "mapper", "--database_path", db,
+                         "--image_path", dir + "/images", "--output_path",
+                         dir + "/hisfm", "--log_level", "warn"},
+                        dir + "/hisfm.log", budget);
+        std::cerr << "== n = " << n << ": colmap mapper\n";
+        fs::create_directories(dir + "/colmap");
+        c = RunMeasured({"colmap", "mapper", "--database_path", db,
+                         "--image_path", dir + "/images", "--output_path",
+                         dir + "/colmap"},
+                        dir + "/colmap.log", budget);
+      }
+      auto time_cell = [&](const ProcessResult& r) {
+        if (n > mapper_max_images) return std::string("skipped");
+        if (!r.finished) return "> " + Fmt(budget, 0) + " (budget)";
+        return r.exit_code == 0 ? Fmt(r.seconds, 1) : std::string("failed");
+      };
+      ns.push_back(n);
+      graph_t.push_back(graph_seconds);
+      graph_mb.push_back(graph.peak_mb);
+      hisfm_t.push_back(h.finished && h.exit_code == 0 ? h.seconds : NAN);
+      colmap_t.push_back(c.finished && c.exit_code == 0 ? c.seconds : NAN);
+      table << "| " << n << " | " << synth.num_verified_pairs << " | "
+            << Fmt(synth.total_seconds, 1) << " | " << Fmt(graph_seconds, 2)
+            << " | " << Fmt(graph.peak_mb, 0) << " | " << time_cell(h)
+            << " | " << (n <= mapper_max_images ? Fmt(h.peak_mb, 0) : "-")
+            << " | " << time_cell(c) << " | "
+            << (n <= mapper_max_images ? Fmt(c.peak_mb, 0) : "-") << " | "
+            << Fmt(hisfm_t.back() / colmap_t.back(), 2) << " |\n";
+      const std::string text = table.str();
+      std::cout << text.substr(printed) << std::flush;
+      printed = text.size();
+      fs::remove(db);  // Databases of the large sizes are gigabytes.
+    }
+    table << "\nGrowth with n (slope of log time over log n): graph stage "
+          << Fmt(GrowthExponent(ns, graph_t), 2) << ", graph memory "
+          << Fmt(GrowthExponent(ns, graph_mb), 2) << ", hisfm mapper "
+          << Fmt(GrowthExponent(ns, hisfm_t), 2) << ", colmap mapper "
+          << Fmt(GrowthExponent(ns, colmap_t), 2) << "\n";
+    std::cout << "\n" << table.str();
+  } catch (const Error& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

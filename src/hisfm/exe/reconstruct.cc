@@ -1,0 +1,259 @@
+// `hisfm reconstruct`: from a folder of photos to a model and its report
+// (COLMAP features and matching on the CPU, the hierarchical mapper, the
+// HTML report), resumable; and `hisfm report` for a finished mapper run.
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <sstream>
+#include <string>
+
+#include "hisfm/eval/pose_evaluation.h"
+#include "hisfm/exe/command.h"
+#include "hisfm/exe/option_flags.h"
+#include "hisfm/io/database.h"
+#include "hisfm/io/model.h"
+#include "hisfm/recon/feature_pipeline.h"
+#include "hisfm/recon/hierarchical_mapper.h"
+#include "hisfm/report/report_writer.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
+
+namespace fs = std::filesystem;
+
+namespace hisfm {
+namespace {
+
+// The lines of an options record that change the mapper's result.
+std::string MapperOptionsText(const std::string& record,
+                              const std::vector<std::string>& mapper_args) {
+  std::istringstream in(record);
+  std::string line, out;
+  while (std::getline(in, line)) {
+    if (line.rfind("HiSfM.", 0) == 0 || line.rfind("colmap_path", 0) == 0) {
+      out += line + "\n";
+    }
+  }
+  for (const std::string& a : mapper_args) out += a + "\n";
+  return out;
+}
+
+// Adds the evaluation against a reference model to a report input.
+void AddReference(const std::string& reference_path, ReportInput* input) {
+  if (reference_path.empty()) return;
+  input->reference = ReadModel(reference_path);
+  if (input->model) {
+    input->evaluation = ToJson(EvaluateModel(
+        *input->model, *input->reference, PoseEvaluationOptions()));
+  }
+}
+
+int RunReconstructCommand(int argc, char** argv) {
+  CLI::App app(
+      "From a folder of photos to a model: COLMAP feature extraction and "
+      "matching on the CPU into WORKSPACE/database.db, the hierarchical "
+      "mapper into WORKSPACE/sparse (models 0, 1, ...), and the report "
+      "WORKSPACE/sparse/report.html. Stages whose inputs did not change "
+      "since the last run are skipped. Unknown --Mapper.* flags go to "
+      "colmap mapper.",
+      "hisfm reconstruct");
+  std::string image_path, workspace_path, reference_path;
+  FeaturePipelineOptions features;
+  HierarchicalMapperOptions options;
+  std::string log_level = "info";
+  app.add_option("--image_path", image_path, "Folder of the photos")
+      ->required();
+  app.add_option("--workspace_path", workspace_path,
+                 "Workspace folder (created; reused to resume)")
+      ->required();
+  app.add_option("--matcher", features.matcher,
+                 "exhaustive (every pair) or sequential (photos taken in "
+                 "name order)")
+      ->check(CLI::IsMember({"exhaustive", "sequential"}))
+      ->capture_default_str();
+  app.add_option("--camera_mode", features.camera_mode,
+                 "single (one camera for all photos), per_image, or auto "
+                 "(single if all photos have the same size)")
+      ->check(CLI::IsMember({"single", "per_image", "auto"}))
+      ->capture_default_str();
+  app.add_option("--camera_model", features.camera_model,
+                 "COLMAP camera model of the new cameras")
+      ->capture_default_str();
+  app.add_option("--num_threads", features.num_threads,
+                 "Threads of feature extraction and matching (-1: all)")
+      ->capture_default_str();
+  app.add_option("--reference_path", reference_path,
+                 "Reference model (same image names) to evaluate against "
+                 "and overlay in the report");
+  AddHierarchicalMapperFlags(app, &options);
+  AddLogLevelFlag(app, &log_level);
+  app.allow_extras();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  options.mapper_args = TakeMapperPassThrough(app.remaining());
+  options.Check();
+  features.colmap = options.colmap;
+  const std::string record = OptionsRecord(app);
+  Timer total;
+
+  // Stages 1-3: scan, features, matching.
+  const FeaturePipelineResult pipeline =
+      RunFeaturePipeline(image_path, workspace_path, features);
+  const std::string ws = fs::absolute(workspace_path).lexically_normal();
+  StageLedger ledger(ws + "/stages.json");
+
+  // Stage 4: the hierarchical mapper.
+  const std::string sparse = ws + "/sparse";
+  const std::string summary_path = sparse + "/hisfm_summary.json";
+  const std::string mapper_fp = TextFingerprint(
+      StrCat("mapper v1\n", pipeline.fingerprint, "\n",
+             fs::absolute(image_path).lexically_normal().string(), "\n",
+             MapperOptionsText(record, options.mapper_args)));
+  double mapper_seconds = 0;
+  bool mapper_skipped = false;
+  if (ledger.IsDone("mapper", mapper_fp) && fs::exists(summary_path)) {
+    mapper_skipped = true;
+    HISFM_LOG_INFO("mapper: unchanged since the last run, skipped");
+  } else {
+    ledger.Invalidate("mapper");
+    std::error_code ec;
+    fs::remove_all(sparse, ec);
+    fs::remove_all(sparse + "_work", ec);
+    size_t num_images = 0;
+    {
+      Database db(pipeline.database_path);
+      num_images = db.ReadImages().size();
+    }
+    MapperPaths paths;
+    paths.database_path = pipeline.database_path;
+    paths.image_path = image_path;
+    paths.output_path = sparse;
+    paths.work_path = sparse + "_work";
+    paths.options_record = record;
+    Timer timer;
+    {
+      // Progress of the largest component's colmap mapper calls.
+      ColmapLogFollower follower(paths.work_path + "/component0/colmap.log",
+                                 "Registering images", num_images,
+                                 ParseMapperProgress, 0.5);
+      RunHierarchicalMapper(paths, options);
+      follower.Stop();
+    }
+    mapper_seconds = timer.ElapsedSeconds();
+    ledger.MarkDone("mapper", mapper_fp, mapper_seconds, {summary_path});
+  }
+
+  // Stage 5: the report (always rewritten: it is cheap).
+  Timer report_timer;
+  ReportInput input = ReadMapperReportInput(sparse);
+  fs::path folder = fs::absolute(image_path).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();
+  if (folder.filename() == "images" && folder.has_parent_path()) {
+    folder = folder.parent_path();
+  }
+  input.title = StrCat("HiSfM reconstruction of ", folder.filename().string());
+  auto note = [](bool skipped) {
+    return skipped ? std::string("unchanged, time of the last run")
+                   : std::string();
+  };
+  input.stages.push_back({"feature extraction (colmap, CPU)",
+                          pipeline.recorded_extraction_seconds,
+                          note(pipeline.extraction_skipped)});
+  input.stages.push_back({StrCat("matching (colmap ", features.matcher,
+                                 "_matcher, CPU)"),
+                          pipeline.recorded_matching_seconds,
+                          note(pipeline.matching_skipped)});
+  for (const SkippedImageFile& s : pipeline.scan.skipped) {
+    input.skipped_files.emplace_back(s.name, s.reason);
+  }
+  input.facts.insert(
+      input.facts.begin(),
+      {{"workspace", ws},
+       {"photos", StrCat(pipeline.scan.images.size(), " readable, ",
+                         pipeline.scan.skipped.size(), " skipped")},
+       {"cameras", CameraModeName(pipeline.camera_mode)},
+       {"matcher", features.matcher}});
+  AddReference(reference_path, &input);
+  const std::string report_path = sparse + "/report.html";
+  WriteReport(input, report_path);
+
+  // What happened, as a table on standard output.
+  const double recorded_mapper =
+      mapper_skipped ? ledger.Seconds("mapper") : mapper_seconds;
+  std::printf("\n%-22s %10s\n", "stage", "time");
+  auto row = [](const char* name, double seconds, bool skipped) {
+    std::printf("%-22s %9.1f s%s\n", name, seconds,
+                skipped ? "  (skipped: unchanged; time of the last run)" : "");
+  };
+  row("feature extraction", pipeline.recorded_extraction_seconds,
+      pipeline.extraction_skipped);
+  row("matching", pipeline.recorded_matching_seconds,
+      pipeline.matching_skipped);
+  row("hierarchical mapper", recorded_mapper, mapper_skipped);
+  row("report", report_timer.ElapsedSeconds(), false);
+  std::printf("%-22s %9.1f s\n", "this run", total.ElapsedSeconds());
+  const nlohmann::json& summary = input.summary;
+  std::printf("\nregistered %s of %zu images in %zu model(s): %s/0\n",
+              summary.value("registered_images", nlohmann::json(0))
+                  .dump()
+                  .c_str(),
+              pipeline.scan.images.size(),
+              summary.contains("models") ? summary["models"].size() : 0,
+              sparse.c_str());
+  if (input.evaluation.is_object() && input.evaluation.contains("correct")) {
+    std::printf("against the reference: %s\n",
+                input.evaluation["correct"].get<bool>()
+                    ? "correct"
+                    : StrCat("incorrect (",
+                             input.evaluation.value("verdict_reason", ""), ")")
+                          .c_str());
+  }
+  std::printf("report: %s\n", report_path.c_str());
+  return 0;
+}
+
+int RunReportCommand(int argc, char** argv) {
+  CLI::App app(
+      "Writes the HTML report of a finished `hisfm mapper` run (summary, "
+      "view graph, top view of the model, stage times) to "
+      "OUTPUT/report.html, optionally with a reference model overlaid and "
+      "evaluated.",
+      "hisfm report");
+  std::string output_path, reference_path, html_path;
+  std::string log_level = "info";
+  app.add_option("--output_path", output_path,
+                 "Output folder of hisfm mapper (with hisfm_summary.json)")
+      ->required();
+  app.add_option("--reference_path", reference_path,
+                 "Reference model (same image names) to overlay and "
+                 "evaluate against");
+  app.add_option("--html_path", html_path,
+                 "HTML file to write (default OUTPUT/report.html)");
+  AddLogLevelFlag(app, &log_level);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  ReportInput input = ReadMapperReportInput(output_path);
+  AddReference(reference_path, &input);
+  if (html_path.empty()) html_path = output_path + "/report.html";
+  WriteReport(input, html_path);
+  HISFM_LOG_INFO("report written to {}", html_path);
+  return 0;
+}
+
+HISFM_REGISTER_COMMAND("reconstruct",
+                       "photos to model: colmap features and matching, the "
+                       "hierarchical mapper, the report (resumable)",
+                       RunReconstructCommand);
+HISFM_REGISTER_COMMAND("report",
+                       "write the HTML report of a finished mapper run",
+                       RunReportCommand);
+
+}  // namespace
+}  // namespace hisfm
