@@ -4,6 +4,7 @@
 #include <cmath>
 #include <set>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "hisfm/graph/min_cut.h"
 #include "hisfm/graph/union_find.h"
@@ -48,6 +49,14 @@ using CommunityPair = std::pair<CommunityId, CommunityId>;
 CommunityPair MakeCommunityPair(CommunityId a, CommunityId b) {
   return a < b ? CommunityPair(a, b) : CommunityPair(b, a);
 }
+
+struct CommunityPairHash {
+  size_t operator()(const CommunityPair& p) const {
+    return std::hash<uint64_t>()((static_cast<uint64_t>(p.first) << 32) |
+                                 p.second);
+  }
+};
+using CommunityPairSet = std::unordered_set<CommunityPair, CommunityPairHash>;
 
 struct Bridge {
   ImagePair pair;
@@ -193,7 +202,7 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
 template <typename RejectFn>
 void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
                          const SkeletonOptions& options, ScoreCache* cache,
-                         std::set<CommunityPair>* used,
+                         CommunityPairSet* used,
                          std::set<ImagePair>* in_skeleton, Skeleton* skeleton,
                          RejectFn&& reject) {
   UnionFind all(m);
@@ -274,7 +283,7 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
       1, std::min<size_t>(options.max_verify_batch_size,
                           scorer ? scorer->PreferredBatchSize() : 1));
   ScoreCache cache(scorer, batch, &skeleton);
-  std::set<CommunityPair> used;       // U: community pairs of earlier trees.
+  CommunityPairSet used;  // U: community pairs of earlier trees.
   std::set<ImagePair> rejected_seen;  // Rejections are recorded once.
   std::set<ImagePair> in_skeleton;
 
@@ -297,7 +306,7 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
         // Speculative batch: the next bridges Kruskal would take if every
         // earlier one passed. Those remain valid candidates if one fails.
         UnionFind sim = uf;
-        std::set<CommunityPair> sim_pairs;
+        CommunityPairSet sim_pairs;
         std::vector<ImagePair> todo;
         for (size_t q = k; q < bridges.size() && todo.size() < cache.batch_size();
              ++q) {

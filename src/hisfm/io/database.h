@@ -67,11 +67,12 @@ enum class TwoViewConfig : int {
   kMultiple = 8,
 };
 
-/// Summary of a verified pair: enough to build the view graph.
+/// Summary of a verified pair: enough to build the view graph. (The config
+/// column is not read here: it sits behind the match blob, and reaching it
+/// costs a read of every overflow page.)
 struct VerifiedPair {
   ImagePair pair;
   uint32_t num_inliers = 0;
-  int config = 0;
 };
 
 /// A full row of `two_view_geometries`, oriented as stored (pair.image_id1 is
@@ -111,7 +112,7 @@ class Database {
   /// Number of rows in `two_view_geometries` with at least `min_num_inliers`.
   size_t NumVerifiedPairs(uint32_t min_num_inliers = 1) const;
   /// Every verified pair with at least `min_num_inliers` inliers, sorted by
-  /// pair. Reads only the pair id, row count and config (fast).
+  /// pair. Reads only the pair id and row count (fast).
   std::vector<VerifiedPair> ReadVerifiedPairs(uint32_t min_num_inliers) const;
   /// The full two-view geometry of a pair; throws if the pair is absent.
   TwoViewGeometry ReadTwoViewGeometry(ImageId a, ImageId b) const;

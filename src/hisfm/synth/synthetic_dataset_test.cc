@@ -88,10 +88,10 @@ TEST_F(SyntheticDatasetTest, WritesReadableDatabaseAndGroundTruth) {
   EXPECT_GT(summary.num_doppelganger_pairs, 0u);
   size_t num_inliers = 0;
   for (const VerifiedPair& vp : verified) {
-    EXPECT_EQ(vp.config, static_cast<int>(TwoViewConfig::kCalibrated));
     num_inliers += vp.num_inliers;
     const TwoViewGeometry g =
         database.ReadTwoViewGeometry(vp.pair.image_id1, vp.pair.image_id2);
+    EXPECT_EQ(g.config, static_cast<int>(TwoViewConfig::kCalibrated));
     EXPECT_EQ(g.inlier_matches.size(), vp.num_inliers);
     // Inliers are a subset of the raw matches.
     const std::vector<FeatureMatch> raw =
