@@ -10,6 +10,7 @@
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
 #include "hisfm/io/model.h"
+#include "hisfm/recon/retriangulation.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 
@@ -109,6 +110,12 @@ int RunEvaluate(int argc, char** argv) {
                  "Models with at least this many reference images count as "
                  "parts of an oversplit result")
       ->capture_default_str();
+  std::string database_path, image_path;
+  app.add_option("--database_path", database_path,
+                 "Also re-triangulate the largest model's poses from this "
+                 "(unfiltered) database: the paper's quality proxy")
+      ->needs(app.add_option("--image_path", image_path,
+                             "Photo folder for --database_path"));
   app.add_option("--alignment_inlier_threshold",
                  options.alignment.inlier_threshold,
                  "Centre alignment inlier distance, fraction of the scene "
@@ -133,6 +140,23 @@ int RunEvaluate(int argc, char** argv) {
       EvaluateModels(models, reference, options);
 
   nlohmann::json j = ToJson(evaluation);
+  std::string proxy_text;
+  if (!database_path.empty()) {
+    char work[] = "/tmp/hisfm-proxy-XXXXXX";
+    ThrowUnless(mkdtemp(work) != nullptr, "cannot create a temporary folder");
+    const RetriangulationStats stats = Retriangulate(
+        database_path, image_path,
+        model_paths[evaluation.largest_model].string(), work,
+        ColmapRunnerOptions());
+    std::error_code ec;
+    fs::remove_all(work, ec);
+    j["retriangulation"] = ToJson(stats);
+    proxy_text = StrCat("re-triangulated from the full database: ",
+                        stats.points3D, " points, mean reprojection error ",
+                        stats.mean_reprojection_error,
+                        " px, mean track length ", stats.mean_track_length,
+                        "\n");
+  }
   j["reference_path"] = reference_path;
   j["model_paths"] = nlohmann::json::array();
   for (const fs::path& path : model_paths) {
@@ -153,7 +177,7 @@ int RunEvaluate(int argc, char** argv) {
       header += "\n";
     }
     header += StrCat("reference: ", reference_path, "\n");
-    std::printf("%s%s", header.c_str(),
+    std::printf("%s%s%s", header.c_str(), proxy_text.c_str(),
                 FormatMultiModelEvaluation(evaluation).c_str());
   }
   return 0;
