@@ -7,6 +7,8 @@
 #include "hisfm/exe/command.h"
 #include "hisfm/exe/option_flags.h"
 #include "hisfm/recon/hierarchical_mapper.h"
+#include "hisfm/report/report_writer.h"
+#include "hisfm/util/logging.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 
@@ -43,6 +45,9 @@ int RunMapperCommand(int argc, char** argv) {
   options.mapper_args = TakeMapperPassThrough(app.remaining());
   paths.options_record = OptionsRecord(app);
   RunHierarchicalMapper(paths, options);
+  const std::string report_path = paths.output_path + "/report.html";
+  WriteReport(ReadMapperReportInput(paths.output_path), report_path);
+  HISFM_LOG_INFO("report: {}", report_path);
   return 0;
 }
 

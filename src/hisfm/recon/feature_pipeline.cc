@@ -233,8 +233,7 @@ ImageFolderScan ScanImageFolder(const std::string& image_path) {
               StrCat("image folder not found: ", image_path));
   ImageFolderScan scan;
   const fs::path root(image_path);
-  fs::recursive_directory_iterator it(
-      root, fs::directory_options::follow_directory_symlink, ec);
+  fs::recursive_directory_iterator it(root, ec);
   ThrowUnless(!ec, StrCat("cannot read image folder ", image_path, ": ",
                           ec.message()));
   size_t num_files = 0;

@@ -72,9 +72,10 @@ struct ImageFolderScan {
 bool ReadImageHeader(const std::string& path, ImageFileInfo* info,
                      std::string* reason);
 
-/// Checks every regular file under `image_path` (recursively, hidden files
-/// and folders ignored). Throws hisfm::Error with one line if the folder is
-/// missing, holds no file, or holds no readable image.
+/// Checks every regular file under `image_path` (recursively, not following
+/// folder symlinks, like COLMAP; hidden files and folders ignored). Throws
+/// hisfm::Error with one line if the folder is missing, holds no file, or
+/// holds no readable image.
 ImageFolderScan ScanImageFolder(const std::string& image_path);
 
 // ---------------------------------------------------------------------------

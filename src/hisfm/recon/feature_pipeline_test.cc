@@ -340,8 +340,19 @@ TEST(RunFeaturePipeline, ExtractsMatchesAndResumes) {
   const FeaturePipelineResult fifth = RunFeaturePipeline(images, ws, options);
   EXPECT_FALSE(fifth.extraction_skipped);
   EXPECT_FALSE(fifth.matching_skipped);
-  Database db(fifth.database_path);
-  EXPECT_EQ(db.ReadImages().size(), 4u);
+  {
+    Database db(fifth.database_path);
+    EXPECT_EQ(db.ReadImages().size(), 4u);
+  }
+
+  // One camera per image.
+  options.camera_mode = "per_image";
+  const FeaturePipelineResult sixth = RunFeaturePipeline(images, ws, options);
+  EXPECT_EQ(sixth.camera_mode, CameraMode::kPerImage);
+  EXPECT_FALSE(sixth.extraction_skipped);
+  Database db(sixth.database_path);
+  EXPECT_EQ(db.ReadCameras().size(), 4u);
+  EXPECT_EQ(db.NumVerifiedPairs(1), 3u);
 }
 
 }  // namespace

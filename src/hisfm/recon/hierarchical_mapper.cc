@@ -7,6 +7,7 @@
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
+#include "hisfm/recon/feature_pipeline.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
@@ -246,7 +247,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
         "--image_list_path", dir + "/skeleton_images.txt"};
     args.insert(args.end(), options.mapper_args.begin(),
                 options.mapper_args.end());
-    const double t_scaffold = RunColmap(options.colmap, args, log);
+    const double t_scaffold = RunColmapWithProgress(
+        options.colmap, args, log, "Scaffold: registering images",
+        comp.skeleton_images.size(), ParseMapperProgress);
     scaffold_seconds += t_scaffold;
     const std::string scaffold = LargestModel(dir + "/scaffold");
     if (scaffold.empty()) {
@@ -278,7 +281,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
            {"--Mapper.ba_global_images_freq", "--Mapper.ba_global_points_freq"})
         AddDefaultFlag(options.mapper_args, flag, "1000000000", &args);
     }
-    const double t_attach = RunColmap(options.colmap, args, log);
+    const double t_attach = RunColmapWithProgress(
+        options.colmap, args, log, "Attach: registering images",
+        comp.images.size(), ParseMapperProgress);
     attach_seconds += t_attach;
     std::string attached = dir + "/attached";
     if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
