@@ -86,6 +86,31 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
   EXPECT_NE(bad_option.code, 0);
 }
 
+TEST(HisfmCli, ReconstructNeedsPhotos) {
+  TempDir tmp;
+  fs::create_directories(tmp / "empty");
+  for (const std::string& dir : {tmp / "missing", tmp / "empty"}) {
+    const Result r = RunHisfm("reconstruct --image_path " + dir +
+                                  " --workspace_path " + (tmp / "ws"),
+                              tmp);
+    EXPECT_NE(r.code, 0) << dir;
+    EXPECT_EQ(NumLines(r.output), 1u) << r.output;
+    EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << r.output;
+  }
+}
+
+TEST(HisfmCli, EveryCommandHasHelp) {
+  TempDir tmp;
+  for (const char* command :
+       {"mapper", "view_graph", "evaluate", "synth", "filter_pairs",
+        "reconstruct", "demo", "report", "model_stats", "model_export",
+        "model_converter"}) {
+    const Result r = RunHisfm(std::string(command) + " -h", tmp);
+    EXPECT_EQ(r.code, 0) << command;
+    EXPECT_NE(r.output.find("Usage"), std::string::npos) << command;
+  }
+}
+
 TEST(HisfmCli, ViewGraphWritesTheHierarchy) {
   const std::string db = SharedDataPath("yan2017/cup", "database.db");
   if (db.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
