@@ -57,6 +57,45 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  o->verifier.builtin.grid_cells,
                  "builtin verifier: grid cells along the longer image side")
       ->capture_default_str();
+  app.add_option("--HiSfM.filter_pairs", o->verifier.filter_pairs,
+                 "Remove pairs explained by repeated structure before the "
+                 "hierarchy (not with verifier none)")
+      ->capture_default_str();
+  app.add_option("--HiSfM.filter_top_pairs", o->filter_top_pairs,
+                 "The pair filter judges each image's this many strongest "
+                 "pairs (0 = all)")
+      ->capture_default_str();
+  auto& pf = o->verifier.pair_filter;
+  app.add_option("--HiSfM.filter_min_distinctive_ratio",
+                 pf.min_distinctive_ratio,
+                 "Pair filter: distinctive inliers needed, as a fraction of "
+                 "the expected number")
+      ->capture_default_str();
+  app.add_option("--HiSfM.filter_distinctive_significance",
+                 pf.distinctive_significance,
+                 "Pair filter: Poisson significance of a distinctive "
+                 "shortfall")
+      ->capture_default_str();
+  app.add_option("--HiSfM.filter_min_three_view_consistency",
+                 pf.min_three_view_consistency,
+                 "Pair filter: fraction of inliers consistent in three views")
+      ->capture_default_str();
+  app.add_option("--HiSfM.filter_num_third_views", pf.num_third_views,
+                 "Pair filter: third views tried per image")
+      ->capture_default_str();
+  app.add_option("--HiSfM.filter_min_relative_coverage",
+                 pf.min_relative_coverage,
+                 "Pair filter: coverage relative to the image's best-covering "
+                 "strong pair")
+      ->capture_default_str();
+  app.add_option("--HiSfM.min_distinctive_ratio",
+                 o->verifier.builtin.min_distinctive_ratio,
+                 "builtin verifier: distinctive inliers ratio scoring 0.5")
+      ->capture_default_str();
+  app.add_option("--HiSfM.distinctive_significance",
+                 o->verifier.builtin.distinctive_significance,
+                 "builtin verifier: significance of a distinctive shortfall")
+      ->capture_default_str();
   app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
                  "Bridges per call of a command verifier")
       ->capture_default_str();

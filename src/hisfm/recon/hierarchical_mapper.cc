@@ -20,12 +20,51 @@ namespace hisfm {
 void HierarchicalMapperOptions::Check() const {
   HISFM_CHECK_OPTION(min_num_matches >= 1);
   HISFM_CHECK_OPTION(min_model_size >= 2);
+  HISFM_CHECK_OPTION(filter_top_pairs >= 0);
   hierarchy.Check();
   verifier.Check();
   colmap.Check();
 }
 
 namespace {
+
+// Runs the pair filter on the union of every image's `top_pairs` strongest
+// pairs (0 = all pairs) and removes what it rejects from the full graph.
+// Only strong pairs are ever trusted without verification (top-k community
+// edges, leaf edges, intra-community skeleton edges), so they are the ones
+// worth judging; weaker pairs can only enter the skeleton as verified
+// bridges. This keeps the filter's cost linear in the number of images.
+PairFilterResult FilterStrongestPairs(const Database& database,
+                                      const ViewGraph& graph, int top_pairs,
+                                      const PairFilterOptions& options) {
+  if (top_pairs <= 0) return FilterAmbiguousPairs(database, graph, options);
+  std::vector<bool> strong(graph.NumEdges(), false);
+  std::vector<size_t> incident;
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    incident = graph.IncidentEdges(i);
+    const size_t k = std::min<size_t>(top_pairs, incident.size());
+    std::partial_sort(incident.begin(), incident.begin() + k, incident.end(),
+                      [&](size_t a, size_t b) {
+                        return graph.Edges()[a].weight >
+                               graph.Edges()[b].weight;
+                      });
+    for (size_t t = 0; t < k; ++t) strong[incident[t]] = true;
+  }
+  std::vector<ViewGraphEdge> strong_edges;
+  for (size_t e = 0; e < graph.NumEdges(); ++e) {
+    if (strong[e]) strong_edges.push_back(graph.Edges()[e]);
+  }
+  PairFilterResult result = FilterAmbiguousPairs(
+      database, ViewGraph::FromEdges(graph.Images(), strong_edges), options);
+  std::set<ImagePair> removed;
+  for (const RemovedPair& r : result.removed) removed.insert(r.pair);
+  std::vector<ViewGraphEdge> kept;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    if (!removed.count(e.pair)) kept.push_back(e);
+  }
+  result.graph = ViewGraph::FromEdges(graph.Images(), kept);
+  return result;
+}
 
 struct LoadedInput {
   std::unique_ptr<Database> database;
@@ -34,7 +73,11 @@ struct LoadedInput {
   Hierarchy hierarchy;
   std::string verifier_name;
   double read_seconds = 0;
+  double filter_seconds = 0;
   double graph_seconds = 0;
+  /// Verified pairs in the database (before the pair filter).
+  size_t num_verified_pairs = 0;
+  nlohmann::json pair_filter;
 };
 
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
@@ -57,6 +100,22 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   in.read_seconds = timer.ElapsedSeconds();
   HISFM_LOG_INFO("{} images, {} verified pairs ({:.2f} s)",
                  in.graph.NumImages(), in.graph.NumEdges(), in.read_seconds);
+  in.num_verified_pairs = in.graph.NumEdges();
+  if (options.verifier.UsesPairFilter()) {
+    LogHeading("Removing pairs explained by repeated structure");
+    PairFilterResult filtered = FilterStrongestPairs(
+        *in.database, in.graph, options.filter_top_pairs,
+        options.verifier.pair_filter);
+    in.pair_filter = PairFilterSummaryJson(filtered, in.graph.NumEdges());
+    HISFM_LOG_INFO(
+        "removed {} of {} pairs ({} distinctive, {} three-view, {} coverage; "
+        "{:.2f} s)",
+        filtered.removed.size(), in.graph.NumEdges(),
+        filtered.num_removed_distinctive, filtered.num_removed_three_view,
+        filtered.num_removed_coverage, filtered.seconds);
+    in.filter_seconds = filtered.seconds;
+    in.graph = std::move(filtered.graph);
+  }
 
   timer.Restart();
   LogHeading("Building the hierarchy");
@@ -146,7 +205,9 @@ nlohmann::json ModelStats(const Reconstruction& model) {
 nlohmann::json HierarchySummary(const LoadedInput& in) {
   const Hierarchy& h = in.hierarchy;
   return {{"images", in.graph.NumImages()},
-          {"verified_pairs", in.graph.NumEdges()},
+          {"verified_pairs", in.num_verified_pairs},
+          {"pairs_after_filter", in.graph.NumEdges()},
+          {"pair_filter", in.pair_filter},
           {"communities", h.communities.NumCommunities()},
           {"candidate_bridges", h.skeleton.num_candidate_bridges},
           {"num_trees", h.skeleton.num_trees},
@@ -160,9 +221,10 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"verifier_calls", h.skeleton.num_verified},
           {"verifier_batches", h.skeleton.num_scorer_calls},
           {"verified_fraction",
-           in.graph.NumEdges() ? static_cast<double>(h.skeleton.num_verified) /
-                                     in.graph.NumEdges()
-                               : 0.0},
+           in.num_verified_pairs
+               ? static_cast<double>(h.skeleton.num_verified) /
+                     in.num_verified_pairs
+               : 0.0},
           {"components", h.components.size()},
           {"isolated_images", h.isolated_images.size()}};
 }
@@ -177,6 +239,7 @@ nlohmann::json ComputeViewGraphJson(const std::string& database_path,
   nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
   out["summary"] = HierarchySummary(in);
   out["timings"] = {{"read_database", in.read_seconds},
+                    {"filter_pairs", in.filter_seconds},
                     {"build_hierarchy", in.graph_seconds}};
   return out;
 }
@@ -335,6 +398,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     summary["mean_track_length"] = models[0]["mean_track_length"];
   }
   summary["timings"] = {{"read_database", in.read_seconds},
+                        {"filter_pairs", in.filter_seconds},
                         {"build_hierarchy", in.graph_seconds},
                         {"filter_databases", filter_seconds},
                         {"scaffold", scaffold_seconds},

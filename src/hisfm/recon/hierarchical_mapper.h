@@ -38,6 +38,9 @@ struct HierarchicalMapperOptions {
   /// Run an extra `colmap bundle_adjuster` after the attachment (the attach
   /// run already ends with a global bundle adjustment).
   bool global_bundle_adjustment = false;
+  /// The pair filter (VerifierOptions::filter_pairs) judges the union of
+  /// every image's this many strongest pairs (0 = every pair).
+  int filter_top_pairs = 20;
   /// Components with fewer images are not reconstructed.
   int min_model_size = 3;
   /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.

@@ -14,6 +14,7 @@
 #include "hisfm/util/error.h"
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/camera_projection.h"
+#include "hisfm/verify/street_test_scene.h"
 
 namespace hisfm {
 namespace {
@@ -164,6 +165,12 @@ TEST(DisambiguatorOptions, CheckRejectsBadValues) {
   o.min_relative_coverage = 0;
   EXPECT_THROW(o.Check(), Error);
   o.min_relative_coverage = 1.5;
+  EXPECT_THROW(o.Check(), Error);
+  o = DisambiguatorOptions();
+  o.min_distinctive_ratio = -0.1;
+  EXPECT_THROW(o.Check(), Error);
+  o = DisambiguatorOptions();
+  o.distinctive_significance = 0;
   EXPECT_THROW(o.Check(), Error);
 }
 
@@ -337,6 +344,44 @@ void CheckRealScene(const std::string& scene) {
   EXPECT_GE(met_false, blind_false);
   EXPECT_EQ(verified.num_components, 1u) << scene;
   EXPECT_LT(seconds / verified.met.size(), 0.2) << scene << ": too slow";
+}
+
+// In a street of identical houses, doppelgangers cover the photos almost as
+// well as true pairs; their lack of distinctive inliers gives them away.
+TEST(ContextDisambiguator, DistinctiveCueRejectsStreetDoppelgangers) {
+  TempDir dir("hisfm-disamb");
+  const street_test::Scene scene =
+      street_test::Write(dir / "database.db", {16, true, 7});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const Communities comm = ComputeCommunities(graph, CommunityOptions());
+  ContextDisambiguator with_cue(db, graph, comm);
+  DisambiguatorOptions coverage_only;
+  coverage_only.min_distinctive_ratio = 0;
+  ContextDisambiguator without_cue(db, graph, comm, coverage_only);
+  int num_pure = 0, num_pure_passing_coverage = 0, num_true = 0;
+  for (const auto& [pair, shift] : scene.shift) {
+    const BridgeEvidence ev = with_cue.Evaluate(pair);
+    EXPECT_EQ(ev.score, std::min(ev.coverage_score, ev.distinctive_score));
+    EXPECT_EQ(without_cue.Evaluate(pair).score, ev.coverage_score);
+    if (shift == 0) {
+      ++num_true;
+      EXPECT_GT(ev.distinctive_score, 0.99) << pair.image_id1 << "-"
+                                            << pair.image_id2;
+    } else if (scene.true_fraction.at(pair) == 0.0 &&
+               ev.image_distinctive_fraction * ev.num_inliers >= 5) {
+      ++num_pure;
+      num_pure_passing_coverage += ev.coverage_score >= 0.5;
+      EXPECT_LT(ev.distinctive_score, 0.5) << pair.image_id1 << "-"
+                                           << pair.image_id2;
+      EXPECT_EQ(ev.num_distinctive, 0u);
+      EXPECT_LT(ev.distinctive_p_value, 0.01);
+    }
+  }
+  EXPECT_GE(num_true, 10);
+  EXPECT_GE(num_pure, 10);
+  // Coverage alone lets some of them through.
+  EXPECT_GE(num_pure_passing_coverage, 1);
 }
 
 TEST(ContextDisambiguator, CupKruskalRejectsDoppelgangers) {

@@ -15,6 +15,7 @@ bool StartsWith(const std::string& s, const std::string& prefix) {
 void VerifierOptions::Check() const {
   HISFM_CHECK_OPTION(command_batch_size >= 1);
   builtin.Check();
+  pair_filter.Check();
   ThrowUnless(verifier == "builtin" || verifier == "none" ||
                   (StartsWith(verifier, "scores:") && verifier.size() > 7) ||
                   (StartsWith(verifier, "command:") && verifier.size() > 8),

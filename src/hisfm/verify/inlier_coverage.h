@@ -1,0 +1,44 @@
+// Image coverage of a set of keypoints on a square occupancy grid.
+//
+// Counting the grid cells that hold a pair's inlier keypoints measures how
+// much of an image the pair explains, independently of how densely the
+// matcher samples it (used by context_disambiguator.h and pair_filter.h).
+#pragma once
+
+#include <unordered_map>
+#include <vector>
+
+#include "hisfm/io/database.h"
+
+namespace hisfm {
+
+/// Cell of every keypoint of the database's images, cached per image.
+class CoverageGrid {
+ public:
+  /// `grid_cells` cells along the longer image side (square cells). The
+  /// database must outlive the grid.
+  CoverageGrid(const Database& database, int grid_cells);
+
+  /// Number of distinct cells holding the keypoints of `image_id` that the
+  /// matches index (idx1 if `first`, else idx2). Out-of-range indices are
+  /// ignored.
+  int CoveredCells(ImageId image_id, const std::vector<FeatureMatch>& matches,
+                   bool first);
+  /// Cells of an image holding any keypoint.
+  int TexturedCells(ImageId image_id);
+
+ private:
+  struct ImageCells {
+    std::vector<int> cell_of_keypoint;
+    int num_textured_cells = 0;
+  };
+  const ImageCells& Cells(ImageId image_id);
+
+  const Database& database_;
+  int grid_cells_;
+  std::unordered_map<CameraId, DatabaseCamera> cameras_;
+  std::unordered_map<ImageId, CameraId> camera_of_image_;
+  std::unordered_map<ImageId, ImageCells> cells_;
+};
+
+}  // namespace hisfm

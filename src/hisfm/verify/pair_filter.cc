@@ -1,0 +1,196 @@
+#include "hisfm/verify/pair_filter.h"
+
+#include <algorithm>
+#include <unordered_map>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/timer.h"
+#include "hisfm/verify/inlier_coverage.h"
+#include "hisfm/verify/track_consistency.h"
+
+namespace hisfm {
+
+void PairFilterOptions::Check() const {
+  HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
+  HISFM_CHECK_OPTION(distinctive_significance > 0 &&
+                     distinctive_significance <= 1);
+  HISFM_CHECK_OPTION(min_three_view_consistency >= 0 &&
+                     min_three_view_consistency <= 1);
+  HISFM_CHECK_OPTION(num_third_views >= 1);
+  three_view.Check();
+  HISFM_CHECK_OPTION(min_relative_coverage >= 0 && min_relative_coverage <= 1);
+  HISFM_CHECK_OPTION(num_coverage_pairs >= 2);
+  HISFM_CHECK_OPTION(coverage_grid_cells >= 2 && coverage_grid_cells <= 100);
+}
+
+PairFilterResult FilterAmbiguousPairs(const Database& database,
+                                      const ViewGraph& graph,
+                                      const PairFilterOptions& options) {
+  options.Check();
+  Timer timer;
+  PairFilterResult result;
+  const TrackConsistency tracks(database, graph);
+  result.inconsistent_track_fraction = tracks.InconsistentFraction();
+
+  // Test A.
+  std::vector<ViewGraphEdge> kept_a;
+  // Distinctive inliers of each pair kept by A: ranks third views for B.
+  std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    const DistinctiveSupport s = tracks.Support(
+        database.ReadTwoViewGeometry(e.pair.image_id1, e.pair.image_id2));
+    if (options.min_distinctive_ratio > 0 &&
+        s.Deficient(options.min_distinctive_ratio,
+                    options.distinctive_significance)) {
+      result.removed.push_back({e.pair, e.weight, "distinctive", s.ratio});
+      ++result.num_removed_distinctive;
+      continue;
+    }
+    num_distinctive[e.pair] = s.num_distinctive;
+    kept_a.push_back(e);
+  }
+
+  // Test B on the pairs kept by A. The third views of an image are its
+  // neighbours (among those pairs) holding the most distinctive inliers:
+  // the pairs whose unique content vouches best for their geometry (a mixed
+  // pair, with true unique and false repeated matches, makes a misleading
+  // third view, and it holds fewer distinctive inliers than a true pair of
+  // the same strength).
+  std::vector<ViewGraphEdge> kept;
+  if (options.min_three_view_consistency <= 0) {
+    kept = kept_a;
+  } else {
+    std::unordered_map<ImageId, std::vector<std::pair<uint32_t, ImageId>>>
+        neighbours;
+    for (const ViewGraphEdge& e : kept_a) {
+      neighbours[e.pair.image_id1].push_back({e.weight, e.pair.image_id2});
+      neighbours[e.pair.image_id2].push_back({e.weight, e.pair.image_id1});
+    }
+    for (auto& [id, list] : neighbours) {
+      const ImageId x = id;
+      auto distinctive = [&](ImageId t) {
+        auto it = num_distinctive.find(ImagePair(x, t));
+        return it == num_distinctive.end() ? 0u : it->second;
+      };
+      std::sort(list.begin(), list.end(), [&](const auto& a, const auto& b) {
+        const uint32_t da = distinctive(a.second);
+        const uint32_t db = distinctive(b.second);
+        if (da != db) return da > db;
+        return a.first > b.first || (a.first == b.first && a.second < b.second);
+      });
+    }
+    PairGeometryCache cache(database);
+    for (const ViewGraphEdge& e : kept_a) {
+      const std::shared_ptr<const PairGeometryCache::PairGeometry> xy =
+          cache.Pair(e.pair, /*keep=*/false);
+      bool judged = false;
+      double fraction = 1.0;
+      for (const ImageId x : {e.pair.image_id1, e.pair.image_id2}) {
+        const ImageId y = x == e.pair.image_id1 ? e.pair.image_id2
+                                                : e.pair.image_id1;
+        bool side_judged = false;
+        double side = 0.0;
+        int used = 0;
+        for (const auto& [weight, t] : neighbours[x]) {
+          if (t == y) continue;
+          if (used++ >= options.num_third_views) break;
+          const ThreeViewResult r = MeasureThreeViewConsistency(
+              cache, tracks, *xy, x, t, options.three_view);
+          if (!r.judged) continue;
+          side_judged = true;
+          side = std::max(side, r.fraction);
+        }
+        if (side_judged) {
+          judged = true;
+          fraction = std::min(fraction, side);
+        }
+      }
+      result.num_three_view_judged += judged;
+      if (judged && fraction < options.min_three_view_consistency) {
+        result.removed.push_back({e.pair, e.weight, "three_view", fraction});
+        ++result.num_removed_three_view;
+        continue;
+      }
+      kept.push_back(e);
+    }
+  }
+
+  // Test C on the pairs kept by A and B.
+  if (options.min_relative_coverage > 0) {
+    const ViewGraph kept_graph = ViewGraph::FromEdges(graph.Images(), kept);
+    CoverageGrid grid(database, options.coverage_grid_cells);
+    std::unordered_map<ImagePair, double, ImagePairHash> dominated;
+    for (ImageId x : kept_graph.Images()) {
+      std::vector<std::pair<uint32_t, ImageId>> strongest;
+      for (size_t e : kept_graph.IncidentEdges(kept_graph.IndexOf(x))) {
+        strongest.push_back(
+            {kept_graph.Edges()[e].weight, kept_graph.OtherEnd(e, x)});
+      }
+      std::sort(strongest.begin(), strongest.end(),
+                [](const auto& a, const auto& b) {
+                  return a.first > b.first ||
+                         (a.first == b.first && a.second < b.second);
+                });
+      if (strongest.size() >
+          static_cast<size_t>(options.num_coverage_pairs)) {
+        strongest.resize(options.num_coverage_pairs);
+      }
+      std::vector<int> cells;
+      size_t best = 0;
+      for (size_t k = 0; k < strongest.size(); ++k) {
+        const TwoViewGeometry g =
+            database.ReadTwoViewGeometry(x, strongest[k].second);
+        cells.push_back(grid.CoveredCells(x, g.inlier_matches,
+                                          g.pair.image_id1 == x));
+        if (cells[k] > cells[best]) best = k;
+      }
+      for (size_t k = 0; k < best; ++k) {
+        const double relative =
+            static_cast<double>(cells[k]) / std::max(1, cells[best]);
+        if (relative < options.min_relative_coverage) {
+          const ImagePair p(x, strongest[k].second);
+          auto it = dominated.find(p);
+          if (it == dominated.end() || it->second > relative) {
+            dominated[p] = relative;
+          }
+        }
+      }
+    }
+    std::vector<ViewGraphEdge> kept_c;
+    for (const ViewGraphEdge& e : kept) {
+      auto it = dominated.find(e.pair);
+      if (it == dominated.end()) {
+        kept_c.push_back(e);
+        continue;
+      }
+      result.removed.push_back({e.pair, e.weight, "coverage", it->second});
+      ++result.num_removed_coverage;
+    }
+    kept.swap(kept_c);
+  }
+
+  result.graph = ViewGraph::FromEdges(graph.Images(), kept);
+  for (ImageId id : graph.Images()) {
+    if (!graph.IncidentEdges(graph.IndexOf(id)).empty() &&
+        result.graph.IncidentEdges(result.graph.IndexOf(id)).empty()) {
+      ++result.num_images_isolated;
+    }
+  }
+  result.seconds = timer.ElapsedSeconds();
+  return result;
+}
+
+nlohmann::json PairFilterSummaryJson(const PairFilterResult& result,
+                                     size_t pairs_before) {
+  return {{"pairs_before", pairs_before},
+          {"pairs_after", result.graph.NumEdges()},
+          {"removed_distinctive", result.num_removed_distinctive},
+          {"removed_three_view", result.num_removed_three_view},
+          {"removed_coverage", result.num_removed_coverage},
+          {"three_view_judged", result.num_three_view_judged},
+          {"inconsistent_track_fraction", result.inconsistent_track_fraction},
+          {"images_isolated", result.num_images_isolated},
+          {"seconds", result.seconds}};
+}
+
+}  // namespace hisfm

@@ -1,0 +1,184 @@
+#include "hisfm/verify/pair_filter.h"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+
+#include "hisfm/io/database_writer.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/test_util.h"
+#include "hisfm/verify/street_test_scene.h"
+
+namespace hisfm {
+namespace {
+
+TEST(PairFilterOptions, CheckRejectsBadValues) {
+  PairFilterOptions o;
+  EXPECT_NO_THROW(o.Check());
+  o.min_distinctive_ratio = 1.5;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
+  o.min_three_view_consistency = -0.1;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
+  o.distinctive_significance = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
+  o.num_third_views = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
+  o.num_coverage_pairs = 1;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
+  o.three_view.max_error_px = 0;
+  EXPECT_THROW(o.Check(), Error);
+}
+
+// Counts of a filtered street against its construction.
+struct StreetOutcome {
+  size_t true_pairs = 0;
+  size_t true_kept = 0;
+  size_t false_kept = 0;
+};
+
+StreetOutcome Count(const street_test::Scene& scene, const ViewGraph& kept) {
+  StreetOutcome out;
+  for (const auto& [pair, shift] : scene.shift) out.true_pairs += shift == 0;
+  for (const ViewGraphEdge& e : kept.Edges()) {
+    (scene.shift.at(e.pair) == 0 ? out.true_kept : out.false_kept)++;
+  }
+  return out;
+}
+
+TEST(FilterAmbiguousPairs, KeepsOnlyTruePairsOfARepeatedStreet) {
+  for (uint32_t seed : {1u, 2u}) {
+    TempDir dir("hisfm-pairfilter");
+    const street_test::Scene scene =
+        street_test::Write(dir / "database.db", {20, true, seed});
+    Database db(dir / "database.db");
+    const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+    const StreetOutcome before = Count(scene, graph);
+    ASSERT_GT(before.false_kept, 2 * before.true_pairs);  // a hard scene
+
+    const auto start = std::chrono::steady_clock::now();
+    const PairFilterResult result =
+        FilterAmbiguousPairs(db, graph, PairFilterOptions());
+    const double seconds = std::chrono::duration<double>(
+                               std::chrono::steady_clock::now() - start)
+                               .count();
+    const StreetOutcome after = Count(scene, result.graph);
+    EXPECT_EQ(after.false_kept, 0u) << "seed " << seed;
+    EXPECT_EQ(after.true_kept, before.true_pairs) << "seed " << seed;
+    EXPECT_EQ(result.num_images_isolated, 0u);
+    EXPECT_EQ(result.graph.NumImages(), graph.NumImages());
+    EXPECT_EQ(result.removed.size(),
+              result.num_removed_distinctive + result.num_removed_three_view +
+                  result.num_removed_coverage);
+    EXPECT_GT(result.num_removed_distinctive, 0u);
+    EXPECT_GT(result.num_removed_three_view, 0u);
+    EXPECT_GT(result.inconsistent_track_fraction, 0.5);
+    for (const RemovedPair& r : result.removed) {
+      EXPECT_TRUE(r.test == "distinctive" || r.test == "three_view" ||
+                  r.test == "coverage");
+      EXPECT_LT(r.value, 0.6);
+    }
+    const nlohmann::json summary =
+        PairFilterSummaryJson(result, graph.NumEdges());
+    EXPECT_EQ(summary["pairs_before"], graph.NumEdges());
+    EXPECT_EQ(summary["pairs_after"], result.graph.NumEdges());
+    EXPECT_EQ(summary["removed_three_view"], result.num_removed_three_view);
+    // Well under 50 ms per pair.
+    EXPECT_LT(seconds / graph.NumEdges(), 0.05);
+
+    // Without the three-view test, mixed pairs (true ground, false facades)
+    // survive: both tests are needed.
+    PairFilterOptions no_three_view;
+    no_three_view.min_three_view_consistency = 0;
+    const PairFilterResult weaker =
+        FilterAmbiguousPairs(db, graph, no_three_view);
+    EXPECT_EQ(weaker.num_removed_three_view, 0u);
+    EXPECT_GT(Count(scene, weaker.graph).false_kept, 0u);
+  }
+}
+
+TEST(FilterAmbiguousPairs, KeepsEveryPairOfAUniqueStreet) {
+  TempDir dir("hisfm-pairfilter");
+  const street_test::Scene scene =
+      street_test::Write(dir / "database.db", {20, false, 4});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const PairFilterResult result =
+      FilterAmbiguousPairs(db, graph, PairFilterOptions());
+  EXPECT_TRUE(result.removed.empty());
+  EXPECT_EQ(result.graph.NumEdges(), graph.NumEdges());
+  EXPECT_LT(result.inconsistent_track_fraction, 0.02);
+  EXPECT_GT(result.num_three_view_judged, graph.NumEdges() / 2);
+}
+
+// Image 1 (100 x 100 px, 10 x 10 cells) has a strong pair with image 2 whose
+// inliers crowd into two cells, a weaker pair with image 3 spread over 40
+// cells, and a weak pair with image 4 over 10 cells.
+TEST(FilterAmbiguousPairs, RemovesStrongPairsThatCoverLittle) {
+  TempDir dir("hisfm-pairfilter");
+  {
+    DatabaseWriter writer(dir / "database.db");
+    DatabaseCamera camera;
+    camera.camera_id = 1;
+    camera.model_id = 0;
+    camera.width = 100;
+    camera.height = 100;
+    camera.params = {100, 50, 50};
+    writer.WriteCamera(camera);
+    for (ImageId id = 1; id <= 4; ++id) {
+      writer.WriteImage({id, "im" + std::to_string(id), 1});
+      Keypoints k(200, 2);
+      for (int r = 0; r < 200; ++r) {
+        // Keypoints 0..99 in cells (0,0) and (1,0); 100..199 one per cell
+        // of the whole grid (two rounds).
+        if (r < 100) {
+          k.row(r) << 2.0f + (r % 2) * 10.0f + 0.05f * r, 5.0f;
+        } else {
+          const int c = (r - 100) % 100;
+          k.row(r) << 10.0f * (c % 10) + 5.0f, 10.0f * (c / 10) + 5.0f;
+        }
+      }
+      writer.WriteKeypoints(id, k);
+    }
+    auto write = [&](ImageId b, int first, int count, int stride) {
+      TwoViewGeometry g;
+      g.pair = ImagePair(1, b);
+      g.config = static_cast<int>(TwoViewConfig::kCalibrated);
+      for (int k = 0; k < count; ++k) {
+        const Point2DIdx idx = static_cast<Point2DIdx>(first + k * stride);
+        g.inlier_matches.push_back({idx, idx});
+      }
+      writer.WriteTwoViewGeometry(g);
+    };
+    write(2, 0, 100, 1);   // 100 inliers, 2 cells
+    write(3, 100, 80, 1);  // 80 inliers, 80 cells
+    write(4, 100, 20, 2);  // 20 inliers, 20 cells
+    writer.Close();
+  }
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  ASSERT_EQ(graph.NumEdges(), 3u);
+  PairFilterOptions options;
+  options.min_distinctive_ratio = 0;
+  options.min_three_view_consistency = 0;
+  const PairFilterResult result = FilterAmbiguousPairs(db, graph, options);
+  ASSERT_EQ(result.removed.size(), 1u);
+  EXPECT_EQ(result.removed[0].pair, ImagePair(1, 2));
+  EXPECT_EQ(result.removed[0].test, "coverage");
+  EXPECT_NEAR(result.removed[0].value, 2.0 / 80.0, 1e-12);
+  EXPECT_EQ(result.num_removed_coverage, 1u);
+  // The weak pair covers little too, but it does not outrank the
+  // best-covering pair: it is kept.
+  EXPECT_EQ(result.graph.NumEdges(), 2u);
+  EXPECT_GT(result.graph.Weight(1, 4), 0u);
+
+  options.min_relative_coverage = 0;
+  EXPECT_TRUE(FilterAmbiguousPairs(db, graph, options).removed.empty());
+}
+
+}  // namespace
+}  // namespace hisfm

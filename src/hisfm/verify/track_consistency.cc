@@ -1,0 +1,146 @@
+#include "hisfm/verify/track_consistency.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "hisfm/graph/union_find.h"
+
+namespace hisfm {
+
+TrackConsistency::TrackConsistency(const Database& database,
+                                   const ViewGraph& graph) {
+  // Keypoints of all graph images, indexed densely.
+  size_t total = 0;
+  for (ImageId id : graph.Images()) {
+    ImageState s;
+    s.offset = total;
+    s.num_keypoints = static_cast<size_t>(database.ReadKeypoints(id).rows());
+    total += s.num_keypoints;
+    images_[id] = s;
+  }
+  state_.assign(total, kUnmatched);
+  UnionFind tracks(total);
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    const TwoViewGeometry g =
+        database.ReadTwoViewGeometry(e.pair.image_id1, e.pair.image_id2);
+    const ImageState& s1 = images_.at(g.pair.image_id1);
+    const ImageState& s2 = images_.at(g.pair.image_id2);
+    for (const FeatureMatch& m : g.inlier_matches) {
+      if (m.idx1 >= s1.num_keypoints || m.idx2 >= s2.num_keypoints) continue;
+      const size_t a = s1.offset + m.idx1;
+      const size_t b = s2.offset + m.idx2;
+      state_[a] = state_[b] = kDistinctive;
+      tracks.Union(a, b);
+    }
+  }
+  // A track is inconsistent if two of its keypoints belong to one image:
+  // sort the matched keypoints by (track, image) and look for neighbours.
+  struct Node {
+    size_t track;
+    ImageId image;
+    size_t index;
+  };
+  std::vector<Node> nodes;
+  for (const auto& [id, s] : images_) {
+    for (size_t k = 0; k < s.num_keypoints; ++k) {
+      if (state_[s.offset + k] != kUnmatched) {
+        nodes.push_back({tracks.Find(s.offset + k), id, s.offset + k});
+      }
+    }
+  }
+  std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) {
+    return a.track < b.track || (a.track == b.track && a.image < b.image);
+  });
+  for (size_t begin = 0; begin < nodes.size();) {
+    size_t end = begin + 1;
+    bool inconsistent = false;
+    while (end < nodes.size() && nodes[end].track == nodes[begin].track) {
+      inconsistent |= nodes[end].image == nodes[end - 1].image;
+      ++end;
+    }
+    if (inconsistent) {
+      for (size_t k = begin; k < end; ++k) state_[nodes[k].index] = kRepeated;
+    }
+    begin = end;
+  }
+  for (auto& [id, s] : images_) {
+    for (size_t k = 0; k < s.num_keypoints; ++k) {
+      const uint8_t st = state_[s.offset + k];
+      s.num_matched += st != kUnmatched;
+      s.num_distinctive += st == kDistinctive;
+    }
+    num_matched_ += s.num_matched;
+    num_repeated_ += s.num_matched - s.num_distinctive;
+  }
+}
+
+uint8_t TrackConsistency::State(ImageId image_id, uint32_t idx) const {
+  auto it = images_.find(image_id);
+  if (it == images_.end() || idx >= it->second.num_keypoints) {
+    return kUnmatched;
+  }
+  return state_[it->second.offset + idx];
+}
+
+bool TrackConsistency::IsMatched(ImageId image_id, uint32_t idx) const {
+  return State(image_id, idx) != kUnmatched;
+}
+
+bool TrackConsistency::IsDistinctive(ImageId image_id, uint32_t idx) const {
+  return State(image_id, idx) == kDistinctive;
+}
+
+double TrackConsistency::DistinctiveFraction(ImageId image_id) const {
+  auto it = images_.find(image_id);
+  if (it == images_.end() || it->second.num_matched == 0) return 0.0;
+  return static_cast<double>(it->second.num_distinctive) /
+         it->second.num_matched;
+}
+
+size_t TrackConsistency::NumMatched(ImageId image_id) const {
+  auto it = images_.find(image_id);
+  return it == images_.end() ? 0 : it->second.num_matched;
+}
+
+namespace {
+
+// P(X <= k) for X ~ Poisson(lambda), summed in log space.
+double PoissonCdf(uint32_t k, double lambda) {
+  if (lambda <= 0) return 1.0;
+  double log_term = -lambda;  // log P(X = 0)
+  double sum = std::exp(log_term);
+  for (uint32_t i = 1; i <= k; ++i) {
+    log_term += std::log(lambda) - std::log(static_cast<double>(i));
+    sum += std::exp(log_term);
+  }
+  return std::min(1.0, sum);
+}
+
+}  // namespace
+
+DistinctiveSupport TrackConsistency::Support(
+    const TwoViewGeometry& geometry) const {
+  DistinctiveSupport s;
+  s.num_inliers = static_cast<uint32_t>(geometry.inlier_matches.size());
+  for (const FeatureMatch& m : geometry.inlier_matches) {
+    s.num_distinctive += IsDistinctive(geometry.pair.image_id1, m.idx1);
+  }
+  s.image_fraction = std::min(DistinctiveFraction(geometry.pair.image_id1),
+                              DistinctiveFraction(geometry.pair.image_id2));
+  s.expected = s.image_fraction * s.num_inliers;
+  if (s.expected > 0) {
+    s.ratio = std::min(1.0, s.num_distinctive / s.expected);
+    // Only shortfalls matter: the sum is needed below the mean alone.
+    if (s.num_distinctive < s.expected) {
+      s.p_value = PoissonCdf(s.num_distinctive, s.expected);
+    }
+  }
+  return s;
+}
+
+double TrackConsistency::InconsistentFraction() const {
+  return num_matched_ ? static_cast<double>(num_repeated_) / num_matched_
+                      : 0.0;
+}
+
+}  // namespace hisfm

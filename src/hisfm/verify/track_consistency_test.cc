@@ -1,0 +1,156 @@
+#include "hisfm/verify/track_consistency.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "hisfm/io/database_writer.h"
+#include "hisfm/util/test_util.h"
+#include "hisfm/verify/street_test_scene.h"
+
+namespace hisfm {
+namespace {
+
+// Three images with five keypoints each. Tracks {1:0, 2:0, 3:0} and
+// {1:1, 2:1, 3:1}; pair (1, 3) also matches 1:0 to 3:1, which joins them
+// into one track holding keypoints 0 and 1 of images 1 and 3. Track
+// {1:2, 3:2} stays consistent; keypoints 3 and 4 are never matched.
+void WriteHandMadeDatabase(const std::string& path) {
+  DatabaseWriter writer(path);
+  DatabaseCamera camera;
+  camera.camera_id = 1;
+  camera.model_id = 0;
+  camera.width = 100;
+  camera.height = 100;
+  camera.params = {100, 50, 50};
+  writer.WriteCamera(camera);
+  for (ImageId id = 1; id <= 3; ++id) {
+    writer.WriteImage({id, "im" + std::to_string(id), 1});
+    Keypoints k(5, 2);
+    for (int r = 0; r < 5; ++r) k.row(r) << 10.0f * r, 10.0f * r;
+    writer.WriteKeypoints(id, k);
+  }
+  auto write = [&](ImageId a, ImageId b, std::vector<FeatureMatch> m) {
+    TwoViewGeometry g;
+    g.pair = ImagePair(a, b);
+    g.config = static_cast<int>(TwoViewConfig::kCalibrated);
+    g.inlier_matches = std::move(m);
+    writer.WriteTwoViewGeometry(g);
+  };
+  write(1, 2, {{0, 0}, {1, 1}});
+  write(2, 3, {{0, 0}, {1, 1}});
+  write(1, 3, {{0, 1}, {2, 2}});
+  writer.Close();
+}
+
+TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
+  TempDir dir("hisfm-tracks");
+  WriteHandMadeDatabase(dir / "database.db");
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  ASSERT_EQ(graph.NumEdges(), 3u);
+  const TrackConsistency tracks(db, graph);
+  EXPECT_TRUE(tracks.IsMatched(1, 0));
+  EXPECT_FALSE(tracks.IsDistinctive(1, 0));
+  EXPECT_FALSE(tracks.IsDistinctive(1, 1));
+  EXPECT_FALSE(tracks.IsDistinctive(2, 0));
+  EXPECT_FALSE(tracks.IsDistinctive(3, 1));
+  EXPECT_TRUE(tracks.IsDistinctive(1, 2));
+  EXPECT_TRUE(tracks.IsDistinctive(3, 2));
+  EXPECT_FALSE(tracks.IsMatched(1, 3));
+  EXPECT_FALSE(tracks.IsDistinctive(1, 4));
+  EXPECT_FALSE(tracks.IsMatched(7, 0));   // unknown image
+  EXPECT_FALSE(tracks.IsMatched(1, 99));  // unknown keypoint
+  EXPECT_NEAR(tracks.DistinctiveFraction(1), 1.0 / 3.0, 1e-12);
+  EXPECT_NEAR(tracks.DistinctiveFraction(2), 0.0, 1e-12);
+  EXPECT_EQ(tracks.NumMatched(2), 2u);
+  EXPECT_NEAR(tracks.InconsistentFraction(), 6.0 / 8.0, 1e-12);
+
+  const TwoViewGeometry g13 = db.ReadTwoViewGeometry(1, 3);
+  DistinctiveSupport s = tracks.Support(g13);
+  EXPECT_EQ(s.num_inliers, 2u);
+  EXPECT_EQ(s.num_distinctive, 1u);
+  EXPECT_NEAR(s.image_fraction, 1.0 / 3.0, 1e-12);  // both images: 1 of 3
+  EXPECT_NEAR(s.expected, 2.0 / 3.0, 1e-12);
+  EXPECT_NEAR(s.ratio, 1.0, 1e-12);  // 1 found, 2/3 expected: capped
+  EXPECT_EQ(s.p_value, 1.0);         // no shortfall
+  EXPECT_FALSE(s.Deficient(0.5, 0.01));
+  // Pair (1, 2): nothing distinctive expected from image 2.
+  s = tracks.Support(db.ReadTwoViewGeometry(1, 2));
+  EXPECT_EQ(s.expected, 0.0);
+  EXPECT_EQ(s.ratio, 1.0);
+  EXPECT_EQ(s.p_value, 1.0);
+}
+
+TEST(DistinctiveSupport, DeficiencyNeedsALargeAndSignificantShortfall) {
+  DistinctiveSupport s;
+  s.expected = 10;
+  s.ratio = 0.0;
+  s.p_value = std::exp(-10.0);  // P(X <= 0), X ~ Poisson(10)
+  EXPECT_TRUE(s.Deficient(0.5, 0.01));
+  s.ratio = 0.6;
+  EXPECT_FALSE(s.Deficient(0.5, 0.01));
+  s.ratio = 0.2;
+  s.p_value = 0.05;
+  EXPECT_FALSE(s.Deficient(0.5, 0.01));
+}
+
+TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
+  TempDir dir("hisfm-tracks");
+  const street_test::Scene scene =
+      street_test::Write(dir / "database.db", {16, true, 3});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const TrackConsistency tracks(db, graph);
+  size_t repeated = 0, repeated_distinctive = 0;
+  size_t unique = 0, unique_distinctive = 0;
+  for (size_t i = 0; i < scene.point_of_keypoint.size(); ++i) {
+    const ImageId id = static_cast<ImageId>(i + 1);
+    for (size_t k = 0; k < scene.point_of_keypoint[i].size(); ++k) {
+      const int p = scene.point_of_keypoint[i][k];
+      if (p < 0 || !tracks.IsMatched(id, static_cast<uint32_t>(k))) continue;
+      const bool d = tracks.IsDistinctive(id, static_cast<uint32_t>(k));
+      if (scene.repeated[p]) {
+        ++repeated;
+        repeated_distinctive += d;
+      } else {
+        ++unique;
+        unique_distinctive += d;
+      }
+    }
+  }
+  ASSERT_GT(repeated, 1000u);
+  ASSERT_GT(unique, 500u);
+  EXPECT_LT(static_cast<double>(repeated_distinctive) / repeated, 0.05);
+  EXPECT_GT(static_cast<double>(unique_distinctive) / unique, 0.95);
+
+  // Pure doppelgangers (no true inlier) are deficient, true pairs are not;
+  // the Poisson tail is exact for a zero count.
+  int num_pure = 0;
+  for (const auto& [pair, shift] : scene.shift) {
+    const DistinctiveSupport s =
+        tracks.Support(db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2));
+    if (shift == 0) {
+      EXPECT_FALSE(s.Deficient(0.5, 0.01)) << pair.image_id1 << "-"
+                                           << pair.image_id2;
+      EXPECT_GT(s.ratio, 0.8);
+    } else if (scene.true_fraction.at(pair) == 0.0 && s.expected >= 5) {
+      ++num_pure;
+      EXPECT_EQ(s.num_distinctive, 0u);
+      EXPECT_NEAR(s.p_value, std::exp(-s.expected), 1e-9);
+      EXPECT_TRUE(s.Deficient(0.5, 0.01));
+    }
+  }
+  EXPECT_GE(num_pure, 20);
+
+  // The same street with unique houses has consistent tracks.
+  TempDir control_dir("hisfm-tracks");
+  street_test::Write(control_dir / "database.db", {16, false, 3});
+  Database control_db(control_dir / "database.db");
+  const TrackConsistency control(
+      control_db, ViewGraph::FromDatabase(control_db, 15));
+  EXPECT_LT(control.InconsistentFraction(), 0.02);
+}
+
+}  // namespace
+}  // namespace hisfm
