@@ -124,12 +124,10 @@ int RunDemoCommand(int argc, char** argv) {
   AddHierarchicalMapperFlags(app, &options);
   AddLogLevelFlag(app, &log_level);
   app.allow_extras();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseMapperCommand(app, argc, argv, &options);
+      code >= 0) {
+    return code;
   }
-  options.mapper_args = TakeMapperPassThrough(app.remaining());
   options.Check();
   synth.Check();
   CheckColmapAvailable(options.colmap);

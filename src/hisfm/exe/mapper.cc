@@ -37,12 +37,10 @@ int RunMapperCommand(int argc, char** argv) {
   AddHierarchicalMapperFlags(app, &options);
   AddLogLevelFlag(app, &log_level);
   app.allow_extras();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseMapperCommand(app, argc, argv, &options);
+      code >= 0) {
+    return code;
   }
-  options.mapper_args = TakeMapperPassThrough(app.remaining());
   paths.options_record = OptionsRecord(app);
   RunHierarchicalMapper(paths, options);
   const std::string report_path = paths.output_path + "/report.html";

@@ -144,6 +144,18 @@ std::vector<std::string> TakeMapperPassThrough(
   return out;
 }
 
+int ParseMapperCommand(CLI::App& app, int argc, char** argv,
+                       HierarchicalMapperOptions* options) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  options->mapper_args = TakeMapperPassThrough(app.remaining());
+  options->Check();
+  return -1;
+}
+
 std::string OptionsRecord(const CLI::App& app) {
   return app.config_to_str(true, false);
 }

@@ -22,6 +22,12 @@ void AddLogLevelFlag(CLI::App& app, std::string* level);
 std::vector<std::string> TakeMapperPassThrough(
     const std::vector<std::string>& remaining);
 
+/// Parses a command that takes the mapper flags and passes unknown
+/// `--Mapper.*` flags to colmap (app.allow_extras() must be set). Returns -1
+/// when the command should go on, else the exit code (help, parse error).
+int ParseMapperCommand(CLI::App& app, int argc, char** argv,
+                       HierarchicalMapperOptions* options);
+
 /// The options as INI text (COLMAP project-file style), for the record.
 std::string OptionsRecord(const CLI::App& app);
 

@@ -11,6 +11,7 @@
 #include "hisfm/io/model.h"
 #include "hisfm/synth/synth_parallel.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
@@ -19,18 +20,6 @@ namespace fs = std::filesystem;
 
 namespace hisfm {
 namespace {
-
-std::string ShellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
-}
 
 void WriteSceneTables(const SyntheticScene& scene, DatabaseWriter* writer) {
   DatabaseCamera camera;

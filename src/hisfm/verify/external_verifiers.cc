@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
 
 namespace hisfm {
@@ -41,18 +42,6 @@ std::vector<double> LookUp(
     out.push_back(it->second);
   }
   return out;
-}
-
-std::string ShellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
 }
 
 }  // namespace
