@@ -22,6 +22,7 @@
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 
@@ -126,24 +127,15 @@ std::string Verdict(const MethodResult& r) {
   return r.oversplit ? "✓-" : "×";
 }
 
-std::string Fmt(double v, int digits) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << v;
-  return out.str();
-}
-
 std::string Cells(const MethodResult& r) {
   if (!r.ran) return "fail | - | - | - | - | - | - |";
   std::ostringstream out;
   out << Verdict(r) << " | " << r.registered
       << (r.num_models > 1 ? " (" + std::to_string(r.num_models) + " models)"
                            : "")
-      << " | " << Fmt(100 * r.within5, 1) << "% | " << r.proxy.points3D
-      << " | " << Fmt(r.proxy.mean_reprojection_error, 2) << " | "
-      << Fmt(r.proxy.mean_track_length, 2) << " | " << Fmt(r.seconds, 1)
+      << " | " << FormatFixed(100 * r.within5, 1) << "% | " << r.proxy.points3D
+      << " | " << FormatFixed(r.proxy.mean_reprojection_error, 2) << " | "
+      << FormatFixed(r.proxy.mean_track_length, 2) << " | " << FormatFixed(r.seconds, 1)
       << " |";
   return out.str();
 }
@@ -248,16 +240,16 @@ int main(int argc, char** argv) {
             << " " << hisfm.verified_bridges << " / " << hisfm.verified_pairs
             << " | "
             << (colmap.ran && hisfm.ran
-                    ? Fmt(hisfm.seconds / colmap.seconds, 2)
+                    ? FormatFixed(hisfm.seconds / colmap.seconds, 2)
                     : std::string("-"))
             << " |\n";
       const std::string text = table.str();
       std::cout << text.substr(printed) << std::flush;
       printed = text.size();
     }
-    table << "\nTotal mapper time: COLMAP " << Fmt(sum_colmap, 1)
-          << " s, HiSfM " << Fmt(sum_hisfm, 1) << " s, ratio "
-          << Fmt(sum_colmap > 0 ? sum_hisfm / sum_colmap : NAN, 2) << "\n";
+    table << "\nTotal mapper time: COLMAP " << FormatFixed(sum_colmap, 1)
+          << " s, HiSfM " << FormatFixed(sum_hisfm, 1) << " s, ratio "
+          << FormatFixed(sum_colmap > 0 ? sum_hisfm / sum_colmap : NAN, 2) << "\n";
     std::cout << "\n" << table.str();
     if (!markdown_path.empty()) WriteFileAtomically(markdown_path, table.str());
   } catch (const Error& e) {

@@ -24,6 +24,7 @@
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
 
 namespace fs = std::filesystem;
@@ -75,15 +76,6 @@ ProcessResult RunMeasured(const std::vector<std::string>& argv,
   r.seconds = timer.ElapsedSeconds();
   r.peak_mb = usage.ru_maxrss / 1024.0;
   return r;
-}
-
-std::string Fmt(double v, int digits) {
-  if (!std::isfinite(v)) return "-";
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << v;
-  return out.str();
 }
 
 // Least-squares slope of log(y) against log(x).
@@ -185,8 +177,8 @@ int main(int argc, char** argv) {
       }
       auto time_cell = [&](const ProcessResult& r) {
         if (n > mapper_max_images) return std::string("skipped");
-        if (!r.finished) return "> " + Fmt(budget, 0) + " (budget)";
-        return r.exit_code == 0 ? Fmt(r.seconds, 1) : std::string("failed");
+        if (!r.finished) return "> " + FormatFixed(budget, 0) + " (budget)";
+        return r.exit_code == 0 ? FormatFixed(r.seconds, 1) : std::string("failed");
       };
       ns.push_back(n);
       graph_t.push_back(graph_seconds);
@@ -194,22 +186,22 @@ int main(int argc, char** argv) {
       hisfm_t.push_back(h.finished && h.exit_code == 0 ? h.seconds : NAN);
       colmap_t.push_back(c.finished && c.exit_code == 0 ? c.seconds : NAN);
       table << "| " << n << " | " << synth.num_verified_pairs << " | "
-            << Fmt(synth.total_seconds, 1) << " | " << Fmt(graph_seconds, 2)
-            << " | " << Fmt(graph.peak_mb, 0) << " | " << time_cell(h)
-            << " | " << (n <= mapper_max_images ? Fmt(h.peak_mb, 0) : "-")
+            << FormatFixed(synth.total_seconds, 1) << " | " << FormatFixed(graph_seconds, 2)
+            << " | " << FormatFixed(graph.peak_mb, 0) << " | " << time_cell(h)
+            << " | " << (n <= mapper_max_images ? FormatFixed(h.peak_mb, 0) : "-")
             << " | " << time_cell(c) << " | "
-            << (n <= mapper_max_images ? Fmt(c.peak_mb, 0) : "-") << " | "
-            << Fmt(hisfm_t.back() / colmap_t.back(), 2) << " |\n";
+            << (n <= mapper_max_images ? FormatFixed(c.peak_mb, 0) : "-") << " | "
+            << FormatFixed(hisfm_t.back() / colmap_t.back(), 2) << " |\n";
       const std::string text = table.str();
       std::cout << text.substr(printed) << std::flush;
       printed = text.size();
       fs::remove(db);  // Databases of the large sizes are gigabytes.
     }
     table << "\nGrowth with n (slope of log time over log n): graph stage "
-          << Fmt(GrowthExponent(ns, graph_t), 2) << ", graph memory "
-          << Fmt(GrowthExponent(ns, graph_mb), 2) << ", hisfm mapper "
-          << Fmt(GrowthExponent(ns, hisfm_t), 2) << ", colmap mapper "
-          << Fmt(GrowthExponent(ns, colmap_t), 2) << "\n";
+          << FormatFixed(GrowthExponent(ns, graph_t), 2) << ", graph memory "
+          << FormatFixed(GrowthExponent(ns, graph_mb), 2) << ", hisfm mapper "
+          << FormatFixed(GrowthExponent(ns, hisfm_t), 2) << ", colmap mapper "
+          << FormatFixed(GrowthExponent(ns, colmap_t), 2) << "\n";
     std::cout << "\n" << table.str();
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << "\n";

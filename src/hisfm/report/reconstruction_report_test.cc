@@ -11,21 +11,13 @@
 #include "hisfm/report/report_writer.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/test_util.h"
 
 namespace fs = std::filesystem;
 
 namespace hisfm {
 namespace {
-
-size_t Count(const std::string& text, const std::string& what) {
-  size_t n = 0;
-  for (size_t pos = text.find(what); pos != std::string::npos;
-       pos = text.find(what, pos + what.size())) {
-    ++n;
-  }
-  return n;
-}
 
 TEST(ReconstructionReport, BooksPhotosToReport) {
   const std::string src = SharedDataPath("yan2017/books", "images");
@@ -66,12 +58,12 @@ TEST(ReconstructionReport, BooksPhotosToReport) {
   const std::string html_path = paths.output_path + "/report.html";
   WriteReport(input, html_path);
   const std::string html = ReadTextFile(html_path);
-  EXPECT_EQ(Count(html, "<svg "), 3u);
-  EXPECT_EQ(Count(html, "http://") + Count(html, "https://"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "<svg "), 3u);
+  EXPECT_EQ(CountOccurrences(html, "http://") + CountOccurrences(html, "https://"), 0u);
   // Every photo is a dot of the view graph and a camera of the top view;
   // every reference camera is overlaid.
   EXPECT_NE(html.find("8 images in "), std::string::npos);
-  EXPECT_EQ(Count(html, "<rect x="), input.reference->NumRegImages());
+  EXPECT_EQ(CountOccurrences(html, "<rect x="), input.reference->NumRegImages());
   EXPECT_NE(html.find("feature extraction"), std::string::npos);
   EXPECT_NE(html.find("scaffold (colmap mapper on the skeleton)"),
             std::string::npos);

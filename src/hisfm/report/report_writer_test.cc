@@ -11,21 +11,13 @@
 #include "hisfm/report/report_test_util.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/test_util.h"
 
 namespace fs = std::filesystem;
 
 namespace hisfm {
 namespace {
-
-size_t Count(const std::string& text, const std::string& what) {
-  size_t n = 0;
-  for (size_t pos = text.find(what); pos != std::string::npos;
-       pos = text.find(what, pos + what.size())) {
-    ++n;
-  }
-  return n;
-}
 
 // The part of the page between `begin` and the next `end`.
 std::string Between(const std::string& text, const std::string& begin,
@@ -141,20 +133,20 @@ TEST(RenderReportHtml, IsSelfContainedWithAllDrawings) {
   const ReportInput in = FullInput();
   const std::string html = RenderReportHtml(in);
   EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
-  EXPECT_EQ(Count(html, "http://"), 0u);
-  EXPECT_EQ(Count(html, "https://"), 0u);
-  EXPECT_EQ(Count(html, "<script"), 0u);
-  EXPECT_EQ(Count(html, "src="), 0u);
-  EXPECT_EQ(Count(html, "href="), 0u);
-  EXPECT_EQ(Count(html, "@import"), 0u);
-  EXPECT_EQ(Count(html, "url("), 0u);
+  EXPECT_EQ(CountOccurrences(html, "http://"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "https://"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "<script"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "src="), 0u);
+  EXPECT_EQ(CountOccurrences(html, "href="), 0u);
+  EXPECT_EQ(CountOccurrences(html, "@import"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "url("), 0u);
   // View graph, top view and stage chart.
-  EXPECT_EQ(Count(html, "<svg "), 3u);
-  EXPECT_EQ(Count(html, "</svg>"), 3u);
-  EXPECT_EQ(Count(html, "<g ") + Count(html, "<g>"), Count(html, "</g>"));
-  EXPECT_EQ(Count(html, "<text"), Count(html, "</text>"));
-  EXPECT_EQ(Count(html, "<table"), Count(html, "</table>"));
-  EXPECT_EQ(Count(html, "<title>"), Count(html, "</title>"));
+  EXPECT_EQ(CountOccurrences(html, "<svg "), 3u);
+  EXPECT_EQ(CountOccurrences(html, "</svg>"), 3u);
+  EXPECT_EQ(CountOccurrences(html, "<g ") + CountOccurrences(html, "<g>"), CountOccurrences(html, "</g>"));
+  EXPECT_EQ(CountOccurrences(html, "<text"), CountOccurrences(html, "</text>"));
+  EXPECT_EQ(CountOccurrences(html, "<table"), CountOccurrences(html, "</table>"));
+  EXPECT_EQ(CountOccurrences(html, "<title>"), CountOccurrences(html, "</title>"));
 }
 
 TEST(RenderReportHtml, DrawsTheHierarchy) {
@@ -164,18 +156,18 @@ TEST(RenderReportHtml, DrawsTheHierarchy) {
       Between(html, "aria-label=\"view graph\"", "</svg>");
   ASSERT_FALSE(graph.empty());
   // One dot per image, skeletal ones outlined.
-  EXPECT_EQ(Count(Between(graph, "class=\"nodes\"", "</g>\n<g"), "<circle"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"nodes\"", "</g>\n<g"), "<circle"),
             16u);
-  EXPECT_EQ(Count(graph, "class=\"skel\""), 12u);
-  EXPECT_EQ(Count(graph, "class=\"leaf\""), 4u);
+  EXPECT_EQ(CountOccurrences(graph, "class=\"skel\""), 12u);
+  EXPECT_EQ(CountOccurrences(graph, "class=\"leaf\""), 4u);
   // Edge layers with one line per edge.
-  EXPECT_EQ(Count(Between(graph, "class=\"e-bridge\"", "</g>\n<g"), "<line"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"e-bridge\"", "</g>\n<g"), "<line"),
             3u);
-  EXPECT_EQ(Count(Between(graph, "class=\"e-rejected\"", "</g>\n<g"), "<line"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"e-rejected\"", "</g>\n<g"), "<line"),
             1u);
-  EXPECT_EQ(Count(Between(graph, "class=\"e-leaf\"", "</g>\n<g"), "<line"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"e-leaf\"", "</g>\n<g"), "<line"),
             4u);
-  EXPECT_EQ(Count(Between(graph, "class=\"e-intra\"", "</g>\n<g class"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"e-intra\"", "</g>\n<g class"),
                   "<line"),
             8u);
   // The rejected bridge's score is written beside it, and a colour per
@@ -203,18 +195,18 @@ TEST(RenderReportHtml, TopViewWithReferenceAndSubsampledPoints) {
   const std::string html = RenderReportHtml(in, options);
   const std::string top = Between(html, "aria-label=\"top view\"", "</svg>");
   ASSERT_FALSE(top.empty());
-  const size_t drawn = Count(top, "h0");
+  const size_t drawn = CountOccurrences(top, "h0");
   EXPECT_GT(drawn, 400u);
   EXPECT_LE(drawn, 500u);
-  EXPECT_EQ(Count(Between(top, "class=\"cams\"", "</svg>"), "<circle"), 16u);
+  EXPECT_EQ(CountOccurrences(Between(top, "class=\"cams\"", "</svg>"), "<circle"), 16u);
   // Reference squares after the alignment (scale 1 -> 5), one per camera.
-  EXPECT_EQ(Count(Between(top, "class=\"ref\"", "</g>"), "<rect"), 16u);
+  EXPECT_EQ(CountOccurrences(Between(top, "class=\"ref\"", "</g>"), "<rect"), 16u);
   EXPECT_NE(html.find("robust similarity alignment on 16 common images"),
             std::string::npos);
   // No reference: no squares.
   in.reference.reset();
   const std::string plain = RenderReportHtml(in, options);
-  EXPECT_EQ(Count(plain, "class=\"ref\""), 0u);
+  EXPECT_EQ(CountOccurrences(plain, "class=\"ref\""), 0u);
 }
 
 TEST(RenderReportHtml, SummaryEvaluationComparisonStagesAndEscaping) {
@@ -229,10 +221,10 @@ TEST(RenderReportHtml, SummaryEvaluationComparisonStagesAndEscaping) {
   EXPECT_NE(html.find("12.50&deg;"), std::string::npos);
   EXPECT_NE(html.find("COLMAP mapper"), std::string::npos);
   EXPECT_NE(html.find("HiSfM mapper"), std::string::npos);
-  EXPECT_EQ(Count(html, "class=\"badge ok\""), 1u);
+  EXPECT_EQ(CountOccurrences(html, "class=\"badge ok\""), 1u);
   const std::string stages = Between(html, "aria-label=\"stage times\"",
                                      "</svg>");
-  EXPECT_EQ(Count(stages, "class=\"bar\""), 6u);
+  EXPECT_EQ(CountOccurrences(stages, "class=\"bar\""), 6u);
   for (const char* name :
        {"feature extraction", "feature matching", "read database",
         "scaffold (colmap mapper on the skeleton)", "attach leaves"}) {
@@ -250,8 +242,8 @@ TEST(RenderReportHtml, CircleLayoutWithoutAModelAndUnregisteredImages) {
   std::string html = RenderReportHtml(in);
   EXPECT_NE(html.find("Each community is drawn on its own circle"),
             std::string::npos);
-  EXPECT_EQ(Count(html, "<svg "), 2u);  // No top view.
-  EXPECT_EQ(Count(html, "aria-label=\"top view\""), 0u);
+  EXPECT_EQ(CountOccurrences(html, "<svg "), 2u);  // No top view.
+  EXPECT_EQ(CountOccurrences(html, "aria-label=\"top view\""), 0u);
 
   // Three images missing from the model: drawn hollow, in a separate row.
   for (ImageId id : {2u, 7u, 16u}) model.images.erase(id);
@@ -259,9 +251,9 @@ TEST(RenderReportHtml, CircleLayoutWithoutAModelAndUnregisteredImages) {
   html = RenderReportHtml(in);
   const std::string graph =
       Between(html, "aria-label=\"view graph\"", "</svg>");
-  EXPECT_EQ(Count(graph, " unreg\""), 3u);
+  EXPECT_EQ(CountOccurrences(graph, " unreg\""), 3u);
   EXPECT_NE(graph.find("not registered:"), std::string::npos);
-  EXPECT_EQ(Count(Between(graph, "class=\"nodes\"", "</g>\n<g"), "<circle"),
+  EXPECT_EQ(CountOccurrences(Between(graph, "class=\"nodes\"", "</g>\n<g"), "<circle"),
             16u);
 }
 
@@ -276,7 +268,7 @@ TEST(RenderReportHtml, ExtraViewsAndNonOverlappingScoreLabels) {
          {"score", 0.01 * i}});
   }
   const std::string html = RenderReportHtml(in);
-  EXPECT_EQ(Count(html, "aria-label=\"top view\""), 2u);
+  EXPECT_EQ(CountOccurrences(html, "aria-label=\"top view\""), 2u);
   EXPECT_NE(html.find("<h2>COLMAP &lt;folded&gt;</h2>"), std::string::npos);
   const std::string labels = Between(html, "class=\"e-label\"", "</g>");
   std::vector<Eigen::Vector2d> at;
@@ -302,7 +294,7 @@ TEST(RenderReportHtml, EmptyInputGivesAValidPage) {
   const std::string html = RenderReportHtml(ReportInput());
   EXPECT_EQ(html.rfind("<!DOCTYPE html>", 0), 0u);
   EXPECT_NE(html.find("</html>"), std::string::npos);
-  EXPECT_EQ(Count(html, "<svg"), 0u);
+  EXPECT_EQ(CountOccurrences(html, "<svg"), 0u);
 }
 
 TEST(ReadMapperReportInput, ReadsSummaryModelAndHierarchy) {

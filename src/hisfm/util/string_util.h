@@ -1,6 +1,9 @@
 // Small string helpers.
 #pragma once
 
+#include <cmath>
+#include <cstddef>
+#include <sstream>
 #include <string>
 
 namespace hisfm {
@@ -16,6 +19,27 @@ inline std::string ShellQuote(const std::string& s) {
     }
   }
   return out + "'";
+}
+
+/// `value` with `digits` fixed decimals; "-" for NaN or infinity.
+inline std::string FormatFixed(double value, int digits) {
+  if (!std::isfinite(value)) return "-";
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(digits);
+  out << value;
+  return out.str();
+}
+
+/// Number of non-overlapping occurrences of `what` in `text`.
+inline size_t CountOccurrences(const std::string& text,
+                               const std::string& what) {
+  size_t n = 0;
+  for (size_t pos = text.find(what); pos != std::string::npos;
+       pos = text.find(what, pos + what.size())) {
+    ++n;
+  }
+  return n;
 }
 
 }  // namespace hisfm
