@@ -348,7 +348,11 @@ TEST(ReportRender, ChromiumShowsTheDrawings) {
       "timeout 120 ", chromium,
       " --headless --no-sandbox --disable-gpu --disable-quic --no-first-run"
       " --disable-background-networking --disable-component-update"
-      " --disable-sync --hide-scrollbars --user-data-dir=",
+      " --disable-sync --hide-scrollbars"
+      // Let layout and paint finish before the screenshot is taken; without
+      // it a loaded machine sometimes captures the page half painted.
+      " --run-all-compositor-stages-before-draw --virtual-time-budget=5000"
+      " --user-data-dir=",
       tmp.path(), "/profile --screenshot=", png_path,
       " --window-size=1400,2400 file://", html_path);
   ASSERT_EQ(RunShell(command, tmp / "chromium.log"), 0)
