@@ -4,7 +4,6 @@
 #include <cmath>
 #include <set>
 #include <unordered_map>
-#include <unordered_set>
 
 #include "hisfm/graph/min_cut.h"
 #include "hisfm/graph/union_find.h"
@@ -56,54 +55,69 @@ struct CommunityPairHash {
                                  p.second);
   }
 };
-using CommunityPairSet = std::unordered_set<CommunityPair, CommunityPairHash>;
 
 struct Bridge {
   ImagePair pair;
   CommunityId c1;
   CommunityId c2;
   uint32_t weight;
+  // Dense id of the bridge's community pair.
+  uint32_t kappa;
 };
 
-// Lazily scores bridges, each at most once, counting work.
+constexpr double kNotScored = -1.0;
+// Candidates a speculative batch looks through, at most.
+constexpr size_t kMaxLookahead = 4096;
+
+// Lazily scores bridges (by index into the sorted bridge list), each at most
+// once, counting work.
 class ScoreCache {
  public:
-  ScoreCache(BridgeScorer* scorer, size_t batch_size, Skeleton* skeleton)
-      : scorer_(scorer), batch_size_(batch_size), skeleton_(skeleton) {}
+  ScoreCache(const std::vector<Bridge>& bridges, BridgeScorer* scorer,
+             Skeleton* skeleton)
+      : bridges_(bridges),
+        scorer_(scorer),
+        skeleton_(skeleton),
+        scores_(bridges.size(), kNotScored) {}
 
-  bool Has(const ImagePair& p) const { return scores_.count(p) > 0; }
+  bool Has(size_t k) const { return scores_[k] != kNotScored; }
 
-  // Scores `pairs` that are not cached yet, in one call.
-  void Fill(const std::vector<ImagePair>& pairs) {
-    std::vector<ImagePair> todo;
-    for (const ImagePair& p : pairs) {
-      if (!Has(p)) todo.push_back(p);
+  // Scores the bridges `ks` that are not cached yet, in one call.
+  void Fill(const std::vector<size_t>& ks) {
+    std::vector<size_t> todo;
+    std::vector<ImagePair> pairs;
+    for (size_t k : ks) {
+      if (!Has(k)) {
+        todo.push_back(k);
+        pairs.push_back(bridges_[k].pair);
+      }
     }
     if (todo.empty()) return;
-    std::vector<double> s =
-        scorer_ ? scorer_->Score(todo) : std::vector<double>(todo.size(), 1.0);
-    ThrowUnless(s.size() == todo.size(),
-                "verifier returned a wrong number of scores");
+    std::vector<double> s = scorer_ ? scorer_->Score(pairs)
+                                    : std::vector<double>(pairs.size(), 1.0);
+    if (s.size() != todo.size()) {
+      throw Error("verifier returned a wrong number of scores");
+    }
     for (size_t i = 0; i < todo.size(); ++i) {
-      ThrowUnless(std::isfinite(s[i]), "verifier returned a non-finite score");
+      if (!std::isfinite(s[i])) {
+        throw Error("verifier returned a non-finite score");
+      }
       scores_[todo[i]] = std::clamp(s[i], 0.0, 1.0);
     }
     skeleton_->num_verified += todo.size();
     ++skeleton_->num_scorer_calls;
   }
 
-  double Get(const ImagePair& p) {
-    if (!Has(p)) Fill({p});
-    return scores_.at(p);
+  double Get(size_t k) {
+    if (!Has(k)) Fill({k});
+    return scores_[k];
   }
 
-  size_t batch_size() const { return batch_size_; }
-
  private:
+  const std::vector<Bridge>& bridges_;
   BridgeScorer* scorer_;
-  size_t batch_size_;
   Skeleton* skeleton_;
-  std::unordered_map<ImagePair, double, ImagePairHash> scores_;
+  std::vector<double> scores_;
 };
 
 BridgeRecord MakeRecord(const Bridge& b, double score, bool accepted,
@@ -199,26 +213,34 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
 
 // Adds verified bridges across minimum cuts of the skeleton's community graph
 // until each component of the full community graph is K-edge-connected.
+// `used[kappa]` marks the community pairs of the skeleton, `kappas` lists
+// them by dense id.
 template <typename RejectFn>
 void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
+                         const std::vector<CommunityPair>& kappas,
                          const SkeletonOptions& options, ScoreCache* cache,
-                         CommunityPairSet* used,
-                         std::set<ImagePair>* in_skeleton, Skeleton* skeleton,
+                         std::vector<char>* used,
+                         std::vector<char>* in_skeleton, Skeleton* skeleton,
                          RejectFn&& reject) {
   UnionFind all(m);
   for (const Bridge& b : bridges) all.Union(b.c1, b.c2);
   std::map<size_t, std::vector<CommunityId>> components;
   for (CommunityId c = 0; c < m; ++c) components[all.Find(c)].push_back(c);
+  std::vector<size_t> local(m, 0);
   for (const auto& [root, members] : components) {
     if (members.size() < 2) continue;
-    std::unordered_map<CommunityId, size_t> local;
     for (size_t i = 0; i < members.size(); ++i) local[members[i]] = i;
-    std::set<ImagePair> dead;  // Rejected while repairing this component.
+    const size_t component_root = root;
+    auto in_component = [&](CommunityId c) {
+      return all.Find(c) == component_root;
+    };
+    std::vector<char> dead(bridges.size(), 0);  // Rejected while repairing.
     for (size_t iteration = 0; iteration < K * members.size(); ++iteration) {
       std::vector<std::pair<size_t, size_t>> edges;
-      for (const CommunityPair& kappa : *used) {
-        if (local.count(kappa.first)) {
-          edges.push_back({local[kappa.first], local[kappa.second]});
+      for (size_t kappa = 0; kappa < kappas.size(); ++kappa) {
+        if ((*used)[kappa] && in_component(kappas[kappa].first)) {
+          edges.push_back(
+              {local[kappas[kappa].first], local[kappas[kappa].second]});
         }
       }
       const MinCut cut = GlobalMinCut(members.size(), edges);
@@ -226,21 +248,21 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
       std::vector<bool> in_side(members.size(), false);
       for (size_t v : cut.side) in_side[v] = true;
       bool added = false;
-      for (const Bridge& b : bridges) {
-        if (!local.count(b.c1)) continue;
-        const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
+      for (size_t k = 0; k < bridges.size(); ++k) {
+        const Bridge& b = bridges[k];
+        if (!in_component(b.c1)) continue;
         if (in_side[local[b.c1]] == in_side[local[b.c2]] ||
-            used->count(kappa) || dead.count(b.pair)) {
+            (*used)[b.kappa] || dead[k]) {
           continue;
         }
-        const double score = cache->Get(b.pair);
+        const double score = cache->Get(k);
         if (score < options.verify_threshold) {
-          reject(b, score, BridgeRole::kConnectivity);
-          dead.insert(b.pair);
+          reject(k, score, BridgeRole::kConnectivity);
+          dead[k] = 1;
           continue;
         }
-        used->insert(kappa);
-        in_skeleton->insert(b.pair);
+        (*used)[b.kappa] = 1;
+        (*in_skeleton)[k] = 1;
         skeleton->bridges.push_back(
             MakeRecord(b, score, true, BridgeRole::kConnectivity, -1));
         added = true;
@@ -264,13 +286,23 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
   for (const ViewGraphEdge& e : graph.Edges()) {
     const CommunityId a = communities.Of(e.pair.image_id1);
     const CommunityId b = communities.Of(e.pair.image_id2);
-    if (a != b) bridges.push_back({e.pair, a, b, e.weight});
+    if (a != b) bridges.push_back({e.pair, a, b, e.weight, 0});
   }
   std::stable_sort(bridges.begin(), bridges.end(),
                    [](const Bridge& x, const Bridge& y) {
                      return x.weight > y.weight;
                    });
   skeleton.num_candidate_bridges = bridges.size();
+  // Dense ids of the community pairs.
+  std::vector<CommunityPair> kappas;
+  std::unordered_map<CommunityPair, uint32_t, CommunityPairHash> kappa_ids;
+  for (Bridge& b : bridges) {
+    const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
+    auto [it, inserted] =
+        kappa_ids.emplace(kappa, static_cast<uint32_t>(kappas.size()));
+    if (inserted) kappas.push_back(kappa);
+    b.kappa = it->second;
+  }
 
   // A tree can hold at most m - c edges, c = components of the community
   // graph (a forest when the view graph is disconnected).
@@ -282,101 +314,133 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
   const size_t batch = std::max<size_t>(
       1, std::min<size_t>(options.max_verify_batch_size,
                           scorer ? scorer->PreferredBatchSize() : 1));
-  ScoreCache cache(scorer, batch, &skeleton);
-  CommunityPairSet used;  // U: community pairs of earlier trees.
-  std::set<ImagePair> rejected_seen;  // Rejections are recorded once.
-  std::set<ImagePair> in_skeleton;
+  ScoreCache cache(bridges, scorer, &skeleton);
+  std::vector<char> used(kappas.size(), 0);  // U: pairs of earlier trees.
+  std::vector<char> rejected_seen(bridges.size(), 0);  // Recorded once.
+  std::vector<char> in_skeleton(bridges.size(), 0);
 
-  auto reject = [&](const Bridge& b, double score, BridgeRole role) {
-    if (rejected_seen.insert(b.pair).second) {
-      skeleton.rejected.push_back(MakeRecord(b, score, false, role, -1));
+  auto reject = [&](size_t k, double score, BridgeRole role) {
+    if (!rejected_seen[k]) {
+      rejected_seen[k] = 1;
+      skeleton.rejected.push_back(
+          MakeRecord(bridges[k], score, false, role, -1));
     }
   };
 
+  // Candidates of the trees: bridges not rejected and not on a used pair.
+  std::vector<size_t> candidates(bridges.size());
+  for (size_t k = 0; k < bridges.size(); ++k) candidates[k] = k;
+  bool all_trees_span = max_tree_edges > 0;
+  // Rejections met since the last bridge taken: sizes speculative batches.
+  size_t rejection_run = 0;
   for (int t = 0; t < skeleton.num_trees && max_tree_edges > 0; ++t) {
     UnionFind uf(m);
-    std::vector<CommunityPair> tree_pairs;
+    std::vector<uint32_t> tree_pairs;
     size_t tree_size = 0;
-    for (size_t k = 0; k < bridges.size() && tree_size < max_tree_edges;
-         ++k) {
+    for (size_t i = 0; i < candidates.size() && tree_size < max_tree_edges;
+         ++i) {
+      const size_t k = candidates[i];
       const Bridge& b = bridges[k];
-      const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
-      if (used.count(kappa) || uf.Connected(b.c1, b.c2)) continue;
-      if (!cache.Has(b.pair) && cache.batch_size() > 1) {
-        // Speculative batch: the next bridges Kruskal would take if every
-        // earlier one passed. Those remain valid candidates if one fails.
-        UnionFind sim = uf;
-        CommunityPairSet sim_pairs;
-        std::vector<ImagePair> todo;
-        for (size_t q = k; q < bridges.size() && todo.size() < cache.batch_size();
-             ++q) {
-          const Bridge& c = bridges[q];
-          const CommunityPair kc = MakeCommunityPair(c.c1, c.c2);
-          if (used.count(kc) || sim_pairs.count(kc) || !sim.Union(c.c1, c.c2))
+      if (used[b.kappa] || rejected_seen[k] || uf.Connected(b.c1, b.c2)) {
+        continue;
+      }
+      if (!cache.Has(k) && batch > 1 && rejection_run > 0) {
+        // Speculative batch: the next bridges Kruskal meets if every one
+        // before them is rejected, as many as the current run of
+        // rejections (so a scene where most bridges pass stays lazy). They
+        // remain valid candidates whatever the outcome, unless an earlier
+        // one in the batch is taken.
+        const size_t want = std::min(batch, rejection_run + 1);
+        std::vector<size_t> todo;
+        const size_t end = std::min(candidates.size(), i + kMaxLookahead);
+        for (size_t q = i; q < end && todo.size() < want; ++q) {
+          const size_t kc = candidates[q];
+          const Bridge& c = bridges[kc];
+          if (used[c.kappa] || rejected_seen[kc] || cache.Has(kc) ||
+              uf.Connected(c.c1, c.c2)) {
             continue;
-          sim_pairs.insert(kc);
-          todo.push_back(c.pair);
+          }
+          todo.push_back(kc);
         }
         cache.Fill(todo);
       }
-      const double score = cache.Get(b.pair);
+      const double score = cache.Get(k);
       if (score < options.verify_threshold) {
-        reject(b, score, BridgeRole::kTree);
+        reject(k, score, BridgeRole::kTree);
+        ++rejection_run;
         continue;
       }
+      rejection_run = 0;
       uf.Union(b.c1, b.c2);
-      tree_pairs.push_back(kappa);
+      tree_pairs.push_back(b.kappa);
       ++tree_size;
-      in_skeleton.insert(b.pair);
+      in_skeleton[k] = 1;
       skeleton.bridges.push_back(
           MakeRecord(b, score, true, BridgeRole::kTree, t));
     }
-    used.insert(tree_pairs.begin(), tree_pairs.end());
+    all_trees_span &= tree_size == max_tree_edges;
+    for (uint32_t kappa : tree_pairs) used[kappa] = 1;
+    // Later trees never take a rejected bridge or one of a used pair.
+    candidates.erase(
+        std::remove_if(candidates.begin(), candidates.end(),
+                       [&](size_t k) {
+                         return rejected_seen[k] || used[bridges[k].kappa];
+                       }),
+        candidates.end());
   }
 
-  if (options.restore_connectivity && skeleton.num_trees > 1) {
-    RestoreConnectivity(bridges, m, skeleton.num_trees, options, &cache,
-                        &used, &in_skeleton, &skeleton, reject);
+  // K edge-disjoint spanning forests are K-edge-connected in every
+  // component: the repair is needed only when a tree fell short.
+  if (options.restore_connectivity && skeleton.num_trees > 1 &&
+      !all_trees_span) {
+    RestoreConnectivity(bridges, m, skeleton.num_trees, kappas, options,
+                        &cache, &used, &in_skeleton, &skeleton, reject);
   }
 
   // Backups for weak links: verified parallel bridges between the same
   // communities as a weak tree bridge.
   if (options.num_backup_bridges > 0) {
-    std::map<CommunityPair, int> weak;
+    // Backups still wanted per community pair; -1: not a weak link.
+    std::vector<int> wanted(kappas.size(), -1);
+    size_t num_weak = 0;
     for (const BridgeRecord& r : skeleton.bridges) {
       if (static_cast<int>(r.weight) < options.weak_link_max_inliers) {
-        weak[MakeCommunityPair(r.community1, r.community2)] = 0;
+        const uint32_t kappa =
+            kappa_ids.at(MakeCommunityPair(r.community1, r.community2));
+        if (wanted[kappa] < 0) {
+          wanted[kappa] = options.num_backup_bridges;
+          ++num_weak;
+        }
       }
     }
-    for (const Bridge& b : bridges) {
-      if (weak.empty()) break;
-      auto it = weak.find(MakeCommunityPair(b.c1, b.c2));
-      if (it == weak.end() || in_skeleton.count(b.pair)) continue;
-      const double score = cache.Get(b.pair);
+    for (size_t k = 0; k < bridges.size() && num_weak > 0; ++k) {
+      const Bridge& b = bridges[k];
+      if (wanted[b.kappa] <= 0 || in_skeleton[k]) continue;
+      const double score = cache.Get(k);
       if (score < options.verify_threshold) {
-        reject(b, score, BridgeRole::kBackup);
+        reject(k, score, BridgeRole::kBackup);
         continue;
       }
-      in_skeleton.insert(b.pair);
+      in_skeleton[k] = 1;
       skeleton.bridges.push_back(
           MakeRecord(b, score, true, BridgeRole::kBackup, -1));
-      if (++it->second >= options.num_backup_bridges) weak.erase(it);
+      if (--wanted[b.kappa] == 0) --num_weak;
     }
   }
 
   // Extra top-weight bridges on community pairs not used yet.
   int num_top = 0;
-  for (const Bridge& b : bridges) {
+  for (size_t k = 0; k < bridges.size(); ++k) {
     if (num_top >= options.num_top_bridges) break;
-    const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
-    if (in_skeleton.count(b.pair) || used.count(kappa)) continue;
-    const double score = cache.Get(b.pair);
+    const Bridge& b = bridges[k];
+    if (in_skeleton[k] || used[b.kappa]) continue;
+    const double score = cache.Get(k);
     if (score < options.verify_threshold) {
-      reject(b, score, BridgeRole::kTopWeight);
+      reject(k, score, BridgeRole::kTopWeight);
       continue;
     }
-    used.insert(kappa);
-    in_skeleton.insert(b.pair);
+    used[b.kappa] = 1;
+    in_skeleton[k] = 1;
     skeleton.bridges.push_back(
         MakeRecord(b, score, true, BridgeRole::kTopWeight, -1));
     ++num_top;

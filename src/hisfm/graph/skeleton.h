@@ -13,6 +13,14 @@
 // Optional extra bridges (top-weight ones, and backups
 // for weak links) are verified too. Skeletal images of one community are then
 // joined by intra-community edges (no verification).
+//
+// Kruskal is kept exact. Deferring the bridges of community pairs that had
+// several rejections to a later pass (run only while the tree does not span)
+// was tried on the synthetic street (1000 photos, 168k candidate bridges,
+// 90% doppelgangers): it verified more bridges, not fewer (94.8k with two
+// rejections allowed per pair, 93.6k with eight, against 89.9k), because the
+// true bridges sit on the same community pairs as the doppelgangers, and
+// delaying them leaves more pairs of components to be tried.
 #pragma once
 
 #include <map>
@@ -42,7 +50,10 @@ struct SkeletonOptions {
   int weak_link_max_inliers = 50;
   /// Upper bound on pairs sent to the scorer at once; the builder asks for
   /// min(this, scorer's preferred batch size). Batching scores, ahead of
-  /// time, the next bridges Kruskal would take if all before them passed.
+  /// time, the next bridges Kruskal would meet if all before them were
+  /// rejected, as many as the rejections met since the last bridge taken
+  /// (plus one): long runs of doppelgangers are verified in full batches,
+  /// while a scene whose bridges mostly pass is verified lazily.
   int max_verify_batch_size = 64;
   /// When greedy packing leaves the trees' union less than K-edge-connected
   /// (greedy Kruskal can miss a packing that exists), add the heaviest

@@ -244,6 +244,27 @@ TEST(Skeleton, BatchedScoringMakesTheSameDecisions) {
     EXPECT_EQ(a.Edges(), b.Edges());
     std::set<ImagePair> unique(batched.calls.begin(), batched.calls.end());
     EXPECT_EQ(unique.size(), batched.calls.size()) << "a pair scored twice";
+    // Runs of rejections were verified in batches.
+    EXPECT_LT(b.num_scorer_calls, b.num_verified);
+    EXPECT_EQ(a.num_scorer_calls, a.num_verified);
+  }
+}
+
+TEST(Skeleton, BatchesStayLazyWhileBridgesPass) {
+  for (uint32_t seed = 0; seed < 5; ++seed) {
+    const ViewGraph g = ClusteredGraph(8, 4, 0.3, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    RecordingScorer lazy, batched;
+    batched.batch = 16;
+    SkeletonOptions options;
+    options.num_trees = 2;
+    const Skeleton a = BuildSkeleton(g, c, &lazy, options);
+    const Skeleton b = BuildSkeleton(g, c, &batched, options);
+    // Without rejections nothing is verified ahead: the same pairs, in the
+    // same order, one per call.
+    EXPECT_EQ(batched.calls, lazy.calls);
+    EXPECT_EQ(b.num_scorer_calls, b.num_verified);
+    EXPECT_EQ(a.Edges(), b.Edges());
   }
 }
 

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <string>
 #include <unordered_map>
@@ -112,10 +113,27 @@ class Database {
   /// Number of rows in `two_view_geometries` with at least `min_num_inliers`.
   size_t NumVerifiedPairs(uint32_t min_num_inliers = 1) const;
   /// Every verified pair with at least `min_num_inliers` inliers, sorted by
-  /// pair. Reads only the pair id and row count (fast).
+  /// pair. Reads only the pair id and row count, but rows of a few hundred
+  /// inliers fill a page each, so this scans the whole table: two threads
+  /// (two read-only connections) read the two halves of the pair-id range.
   std::vector<VerifiedPair> ReadVerifiedPairs(uint32_t min_num_inliers) const;
   /// The full two-view geometry of a pair; throws if the pair is absent.
   TwoViewGeometry ReadTwoViewGeometry(ImageId a, ImageId b) const;
+  /// Only the inlier matches of a pair, oriented as stored (the first column
+  /// indexes the image with the smaller id); throws if the pair is absent.
+  /// Cheaper than ReadTwoViewGeometry when the matrices are not needed.
+  std::vector<FeatureMatch> ReadInlierMatches(ImageId a, ImageId b) const;
+  /// Reads the inlier matches of many pairs in ascending pair-id order
+  /// (sequential page access, one prepared statement, one read transaction)
+  /// and calls `fn(pair, matches)` for each, the pair oriented as stored;
+  /// pairs absent from the database are skipped, duplicates read once.
+  void ForEachInlierMatches(
+      std::vector<ImagePair> pairs,
+      const std::function<void(const ImagePair&,
+                               const std::vector<FeatureMatch>&)>& fn) const;
+  /// Number of keypoints of every image that has a keypoints row (reads only
+  /// the row counts, not the keypoint data).
+  std::unordered_map<ImageId, size_t> ReadNumKeypoints() const;
   /// Raw (putative) matches of a pair, oriented like the stored pair; empty if
   /// absent.
   std::vector<FeatureMatch> ReadMatches(ImageId a, ImageId b) const;
@@ -124,9 +142,33 @@ class Database {
   /// Descriptors of an image; empty if absent.
   Descriptors ReadDescriptors(ImageId image_id) const;
 
+  /// While a ReadScope of a database lives, its reads share one read
+  /// transaction instead of locking the file once per statement (many small
+  /// reads get several times faster). Scopes nest. Writers of the file wait
+  /// until the outermost scope ends.
+  class ReadScope {
+   public:
+    explicit ReadScope(const Database& database);
+    ~ReadScope();
+    ReadScope(const ReadScope&) = delete;
+    ReadScope& operator=(const ReadScope&) = delete;
+
+   private:
+    const Database& database_;
+  };
+
+  // Reads reuse prepared statements, so one Database must not be used from
+  // two threads at once (open one per thread instead).
+
  private:
+  struct CachedStatements;
+  void BeginRead() const;
+  void EndRead() const;
+
   std::string path_;
   sqlite3* db_ = nullptr;
+  std::unique_ptr<CachedStatements> statements_;
+  mutable int read_depth_ = 0;
 };
 
 /// What WriteFilteredDatabase copies besides cameras, images and keypoints.

@@ -103,6 +103,68 @@ TEST(Database, WriteThenReadRoundTrip) {
   EXPECT_THROW(db.ReadTwoViewGeometry(1, 99), Error);
 }
 
+TEST(Database, BulkAndInlierReadsAgreeWithFullReads) {
+  TempDir tmp;
+  const std::string path = tmp / "db.db";
+  WriteRandomDatabase(path, 7, 2);
+  Database db(path);
+  // All verified pairs, in pair order, with the row counts of full reads.
+  const std::vector<VerifiedPair> all = db.ReadVerifiedPairs(1);
+  ASSERT_EQ(all.size(), 21u);
+  for (size_t k = 0; k < all.size(); ++k) {
+    if (k > 0) {
+      EXPECT_LT(ImagePairToPairId(all[k - 1].pair.image_id1,
+                                  all[k - 1].pair.image_id2),
+                ImagePairToPairId(all[k].pair.image_id1,
+                                  all[k].pair.image_id2));
+    }
+    const TwoViewGeometry g =
+        db.ReadTwoViewGeometry(all[k].pair.image_id1, all[k].pair.image_id2);
+    EXPECT_EQ(all[k].num_inliers, g.inlier_matches.size());
+  }
+  // Inlier-only reads, in either order of the ids.
+  const TwoViewGeometry g = db.ReadTwoViewGeometry(3, 6);
+  const std::vector<FeatureMatch> inliers = db.ReadInlierMatches(6, 3);
+  ASSERT_EQ(inliers.size(), g.inlier_matches.size());
+  for (size_t k = 0; k < inliers.size(); ++k) {
+    EXPECT_EQ(inliers[k].idx1, g.inlier_matches[k].idx1);
+    EXPECT_EQ(inliers[k].idx2, g.inlier_matches[k].idx2);
+  }
+  EXPECT_THROW(db.ReadInlierMatches(1, 99), Error);
+  // Bulk reads: requested pairs present in the database, each once, in
+  // pair-id order, oriented as stored.
+  std::vector<ImagePair> requested = {ImagePair(5, 2), ImagePair(1, 99),
+                                      ImagePair(1, 3), ImagePair(2, 5),
+                                      ImagePair(7, 6)};
+  std::vector<ImagePair> visited;
+  {
+    const Database::ReadScope outer(db);
+    const Database::ReadScope nested(db);
+    db.ForEachInlierMatches(
+        requested, [&](const ImagePair& pair,
+                       const std::vector<FeatureMatch>& matches) {
+          visited.push_back(pair);
+          const TwoViewGeometry full =
+              db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
+          ASSERT_EQ(matches.size(), full.inlier_matches.size());
+          for (size_t k = 0; k < matches.size(); ++k) {
+            EXPECT_EQ(matches[k].idx1, full.inlier_matches[k].idx1);
+            EXPECT_EQ(matches[k].idx2, full.inlier_matches[k].idx2);
+          }
+        });
+  }
+  EXPECT_EQ(visited, (std::vector<ImagePair>{ImagePair(1, 3), ImagePair(2, 5),
+                                             ImagePair(6, 7)}));
+  // Reads still work after the scopes ended.
+  EXPECT_EQ(db.ReadInlierMatches(3, 6).size(), g.inlier_matches.size());
+  const std::unordered_map<ImageId, size_t> num_keypoints =
+      db.ReadNumKeypoints();
+  ASSERT_EQ(num_keypoints.size(), 7u);
+  for (const auto& [id, n] : num_keypoints) {
+    EXPECT_EQ(n, static_cast<size_t>(db.ReadKeypoints(id).rows()));
+  }
+}
+
 TEST(Database, PairIdsMatchColmap) {
   EXPECT_EQ(ImagePairToPairId(1, 2), 2147483649u);
   EXPECT_EQ(ImagePairToPairId(2, 1), 2147483649u);

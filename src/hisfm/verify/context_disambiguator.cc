@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
+#include <thread>
 
 #include "hisfm/util/error.h"
 
@@ -14,7 +16,15 @@ void DisambiguatorOptions::Check() const {
   HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
   HISFM_CHECK_OPTION(distinctive_significance > 0 &&
                      distinctive_significance <= 1);
+  HISFM_CHECK_OPTION(num_threads >= 1 && num_threads <= 64);
 }
+
+struct ContextDisambiguator::Worker {
+  explicit Worker(const std::string& path) : database(path), scope(database) {}
+  Database database;
+  Database::ReadScope scope;
+  CoverageGrid::Scratch scratch;
+};
 
 namespace {
 
@@ -41,7 +51,8 @@ ContextDisambiguator::ContextDisambiguator(const Database& database,
       graph_(graph),
       communities_(communities),
       options_(CheckedOptions(options)),
-      grid_(database, options.grid_cells) {}
+      grid_(database, options.grid_cells),
+      read_scope_(database) {}
 
 ContextDisambiguator::ContextDisambiguator(const VerifierContext& context,
                                            const DisambiguatorOptions& options)
@@ -71,9 +82,10 @@ double ContextDisambiguator::ReferenceCells(ImageId image_id) {
   }
   int best = 0;
   for (const auto& t : trusted) {
-    const TwoViewGeometry g = database_.ReadTwoViewGeometry(image_id, t.second);
-    best = std::max(best, grid_.CoveredCells(image_id, g.inlier_matches,
-                                             g.pair.image_id1 == image_id));
+    const std::vector<FeatureMatch> inliers =
+        database_.ReadInlierMatches(image_id, t.second);
+    best = std::max(best, grid_.CoveredCells(image_id, inliers,
+                                             image_id < t.second));
   }
   // (References into an unordered_map stay valid when it grows.)
   c.has_reference = best > 0;
@@ -107,30 +119,55 @@ const TrackConsistency& ContextDisambiguator::Tracks() {
   return *tracks_;
 }
 
-BridgeEvidence ContextDisambiguator::Evaluate(const ImagePair& pair) {
-  BridgeEvidence ev;
-  ev.pair = pair;
-  const TwoViewGeometry g =
-      database_.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
-  ev.num_inliers = static_cast<uint32_t>(g.inlier_matches.size());
-  ev.cells1 = grid_.CoveredCells(g.pair.image_id1, g.inlier_matches, true);
-  ev.cells2 = grid_.CoveredCells(g.pair.image_id2, g.inlier_matches, false);
-  auto reference = [&](ImageId id) {
+ContextDisambiguator::~ContextDisambiguator() = default;
+
+size_t ContextDisambiguator::PreferredBatchSize() const {
+  return options_.num_threads > 1 ? 32 : 1;
+}
+
+void ContextDisambiguator::Prepare(const ImagePair& pair) {
+  for (const ImageId id : {pair.image_id1, pair.image_id2}) {
+    grid_.Load(id);
     const double ref = ReferenceCells(id);
-    if (cache_.at(id).has_reference) return ref;
+    ImageCache& c = cache_.at(id);
+    if (c.bridge_reference_done) continue;
     // An image without a trusted neighbour: the scene's typical fraction of
     // its textured cells.
-    return std::max(1.0, SceneReferenceFraction() * grid_.TexturedCells(id));
-  };
-  ev.reference1 = reference(g.pair.image_id1);
-  ev.reference2 = reference(g.pair.image_id2);
+    c.bridge_reference =
+        c.has_reference
+            ? ref
+            : std::max(1.0, SceneReferenceFraction() * grid_.TexturedCells(id));
+    c.bridge_reference_done = true;
+  }
+  if (options_.min_distinctive_ratio > 0) Tracks();
+}
+
+BridgeEvidence ContextDisambiguator::Evaluate(const ImagePair& pair) {
+  Prepare(pair);
+  return Measure(database_, pair, &scratch_);
+}
+
+BridgeEvidence ContextDisambiguator::Measure(
+    const Database& database, const ImagePair& pair,
+    CoverageGrid::Scratch* scratch) const {
+  BridgeEvidence ev;
+  ev.pair = pair;
+  // Oriented as stored: the smaller id first.
+  const ImagePair p(pair.image_id1, pair.image_id2);
+  const std::vector<FeatureMatch> inliers =
+      database.ReadInlierMatches(p.image_id1, p.image_id2);
+  ev.num_inliers = static_cast<uint32_t>(inliers.size());
+  ev.cells1 = grid_.CoveredCells(p.image_id1, inliers, true, scratch);
+  ev.cells2 = grid_.CoveredCells(p.image_id2, inliers, false, scratch);
+  ev.reference1 = cache_.at(p.image_id1).bridge_reference;
+  ev.reference2 = cache_.at(p.image_id2).bridge_reference;
   ev.relative1 = std::min(1.0, ev.cells1 / ev.reference1);
   ev.relative2 = std::min(1.0, ev.cells2 / ev.reference2);
   ev.relative = std::min(ev.relative1, ev.relative2);
   ev.coverage_score =
       std::min(1.0, ev.relative / (2.0 * options_.min_relative_coverage));
   if (options_.min_distinctive_ratio > 0 && ev.num_inliers > 0) {
-    const DistinctiveSupport s = Tracks().Support(g);
+    const DistinctiveSupport s = tracks_->Support(p, inliers);
     ev.num_distinctive = s.num_distinctive;
     ev.image_distinctive_fraction = s.image_fraction;
     ev.distinctive_p_value = s.p_value;
@@ -146,9 +183,46 @@ BridgeEvidence ContextDisambiguator::Evaluate(const ImagePair& pair) {
 
 std::vector<double> ContextDisambiguator::Score(
     const std::vector<ImagePair>& pairs) {
-  std::vector<double> scores;
-  scores.reserve(pairs.size());
-  for (const ImagePair& p : pairs) scores.push_back(Evaluate(p).score);
+  for (const ImagePair& p : pairs) Prepare(p);
+  std::vector<double> scores(pairs.size());
+  const size_t num_threads = std::min<size_t>(
+      static_cast<size_t>(options_.num_threads), pairs.size());
+  if (num_threads <= 1) {
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      scores[i] = Measure(database_, pairs[i], &scratch_).score;
+    }
+    return scores;
+  }
+  while (workers_.size() + 1 < num_threads) {
+    workers_.push_back(std::make_unique<Worker>(database_.path()));
+  }
+  // Thread w measures pairs [begin(w), begin(w + 1)); thread 0 is this one.
+  auto begin = [&](size_t w) { return w * pairs.size() / num_threads; };
+  std::vector<std::exception_ptr> errors(num_threads);
+  std::vector<std::thread> threads;
+  for (size_t w = 1; w < num_threads; ++w) {
+    threads.emplace_back([&, w] {
+      try {
+        Worker& worker = *workers_[w - 1];
+        for (size_t i = begin(w); i < begin(w + 1); ++i) {
+          scores[i] = Measure(worker.database, pairs[i], &worker.scratch).score;
+        }
+      } catch (...) {
+        errors[w] = std::current_exception();
+      }
+    });
+  }
+  try {
+    for (size_t i = 0; i < begin(1); ++i) {
+      scores[i] = Measure(database_, pairs[i], &scratch_).score;
+    }
+  } catch (...) {
+    errors[0] = std::current_exception();
+  }
+  for (std::thread& t : threads) t.join();
+  for (const std::exception_ptr& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
   return scores;
 }
 

@@ -94,6 +94,16 @@ struct DisambiguatorOptions {
   /// distinctive inliers is significant at this level (Poisson tail,
   /// DistinctiveSupport::p_value); otherwise it is silent (score 1).
   double distinctive_significance = 0.01;
+  /// Threads measuring a batch of bridges (each reads the database through
+  /// its own connection); 1 = score strictly one bridge at a time. With more
+  /// than one, the disambiguator asks the skeleton builder for batches
+  /// (BridgeScorer::PreferredBatchSize), which verifies ahead the bridges
+  /// Kruskal would meet next: the decisions are the same, a few more
+  /// bridges may be verified (cup: 40 instead of 35). Off by default: a
+  /// batch costs ~0.3 ms, and on the shared 2-core test machine (other
+  /// processes running) waiting for the second thread at every batch made
+  /// the synthetic street's hierarchy slower, not faster.
+  int num_threads = 1;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -134,9 +144,10 @@ struct BridgeEvidence {
 /// The built-in BridgeScorer (Name() "builtin"). Per-image work (keypoint
 /// cells, reference coverage) is computed once and cached, and the tracks of
 /// the whole graph are joined once, at the first bridge (one read of every
-/// pair's inliers: 0.1 s on cup's 2016 pairs); a bridge then costs one read
-/// of its two-view geometry (well under a millisecond on the 1067x800
-/// scenes).
+/// pair's inliers, in pair-id order); a bridge then costs one read of its
+/// inlier matches (about 10 microseconds on the synthetic street, whose
+/// pairs hold ~360 inliers). The disambiguator holds a read transaction on
+/// the database while it lives.
 class ContextDisambiguator : public BridgeScorer {
  public:
   /// The database, graph and communities must outlive the disambiguator.
@@ -148,9 +159,12 @@ class ContextDisambiguator : public BridgeScorer {
   explicit ContextDisambiguator(const VerifierContext& context,
                                 const DisambiguatorOptions& options = {});
 
+  ~ContextDisambiguator() override;
+
   std::string Name() const override { return "builtin"; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
-  size_t PreferredBatchSize() const override { return 1; }
+  /// 1 with one thread, else 32 bridges per batch.
+  size_t PreferredBatchSize() const override;
 
   /// Measures one pair (any two images with a stored two-view geometry;
   /// throws hisfm::Error if the pair is not in the database).
@@ -164,10 +178,22 @@ class ContextDisambiguator : public BridgeScorer {
     bool has_reference = false;
     double reference_cells = 0;
     bool reference_done = false;
+    // The reference a bridge divides by (with the scene fallback), set by
+    // Prepare.
+    double bridge_reference = 0;
+    bool bridge_reference_done = false;
   };
+  // One thread's reading connection and scratch.
+  struct Worker;
 
   double SceneReferenceFraction();
   const TrackConsistency& Tracks();
+  // Computes (serially) the per-image data a bridge of `pair` needs.
+  void Prepare(const ImagePair& pair);
+  // Measures a prepared pair; reads through `database`; const, so several
+  // threads may measure at once.
+  BridgeEvidence Measure(const Database& database, const ImagePair& pair,
+                         CoverageGrid::Scratch* scratch) const;
 
   const Database& database_;
   const ViewGraph& graph_;
@@ -177,6 +203,11 @@ class ContextDisambiguator : public BridgeScorer {
   std::unordered_map<ImageId, ImageCache> cache_;
   double scene_reference_fraction_ = -1;
   std::unique_ptr<TrackConsistency> tracks_;
+  // One read transaction for all the reads of the disambiguator's lifetime.
+  Database::ReadScope read_scope_;
+  CoverageGrid::Scratch scratch_;
+  // Threads beyond the caller's, created at the first parallel batch.
+  std::vector<std::unique_ptr<Worker>> workers_;
 };
 
 }  // namespace hisfm

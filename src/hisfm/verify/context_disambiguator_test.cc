@@ -156,6 +156,9 @@ KruskalResult RunKruskal(const ViewGraph& graph, const Communities& comm,
 TEST(DisambiguatorOptions, CheckRejectsBadValues) {
   DisambiguatorOptions o;
   EXPECT_NO_THROW(o.Check());
+  o.num_threads = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = DisambiguatorOptions();
   o.grid_cells = 1;
   EXPECT_THROW(o.Check(), Error);
   o = DisambiguatorOptions();
@@ -382,6 +385,46 @@ TEST(ContextDisambiguator, DistinctiveCueRejectsStreetDoppelgangers) {
   EXPECT_GE(num_pure, 10);
   // Coverage alone lets some of them through.
   EXPECT_GE(num_pure_passing_coverage, 1);
+}
+
+TEST(ContextDisambiguator, ThreadedBatchesScoreLikeOneByOne) {
+  TempDir dir("hisfm-disamb");
+  street_test::Write(dir / "database.db", {16, true, 7});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const Communities comm = ComputeCommunities(graph, CommunityOptions());
+  std::vector<ImagePair> pairs;
+  for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
+  ASSERT_GE(pairs.size(), 20u);
+  DisambiguatorOptions serial_options;
+  serial_options.num_threads = 1;
+  ContextDisambiguator serial(db, graph, comm, serial_options);
+  EXPECT_EQ(serial.PreferredBatchSize(), 1u);
+  std::vector<double> expected;
+  for (const ImagePair& p : pairs) expected.push_back(serial.Evaluate(p).score);
+  for (const int threads : {2, 3}) {
+    DisambiguatorOptions options;
+    options.num_threads = threads;
+    ContextDisambiguator threaded(db, graph, comm, options);
+    EXPECT_GT(threaded.PreferredBatchSize(), 1u);
+    // Several batches, the first of one pair, so that later batches find
+    // the per-image data already prepared.
+    std::vector<double> got = threaded.Score({pairs[0]});
+    const std::vector<double> rest = threaded.Score(
+        std::vector<ImagePair>(pairs.begin() + 1, pairs.end()));
+    got.insert(got.end(), rest.begin(), rest.end());
+    ASSERT_EQ(got.size(), expected.size());
+    for (size_t k = 0; k < got.size(); ++k) {
+      EXPECT_DOUBLE_EQ(got[k], expected[k]) << "threads " << threads;
+    }
+  }
+  // A pair missing from the database fails from a worker thread as well.
+  DisambiguatorOptions options;
+  options.num_threads = 2;
+  ContextDisambiguator threaded(db, graph, comm, options);
+  EXPECT_THROW(threaded.Score({pairs[0], pairs[1], ImagePair(1, 999),
+                               ImagePair(2, 999)}),
+               Error);
 }
 
 TEST(ContextDisambiguator, CupKruskalRejectsDoppelgangers) {

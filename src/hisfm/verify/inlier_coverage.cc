@@ -45,6 +45,7 @@ const CoverageGrid::ImageCells& CoverageGrid::Cells(ImageId image_id) {
                       grid_cells_;
   const int nx = static_cast<int>(std::ceil(width / cell));
   const int ny = static_cast<int>(std::ceil(height / cell));
+  c.num_cells = nx * ny;
   std::vector<char> textured(static_cast<size_t>(nx) * ny, 0);
   c.cell_of_keypoint.resize(keypoints.rows());
   for (int r = 0; r < keypoints.rows(); ++r) {
@@ -60,21 +61,47 @@ const CoverageGrid::ImageCells& CoverageGrid::Cells(ImageId image_id) {
   return cells_.emplace(image_id, std::move(c)).first->second;
 }
 
+int CoverageGrid::CountCells(const ImageCells& c,
+                             const std::vector<FeatureMatch>& matches,
+                             bool first, Scratch* scratch) {
+  // Distinct cells counted with a stamp per cell: no sort, no clearing.
+  std::vector<uint32_t>& stamp = scratch->stamp;
+  if (stamp.size() < static_cast<size_t>(c.num_cells)) {
+    stamp.resize(c.num_cells, 0);
+  }
+  if (++scratch->current == 0) {
+    std::fill(stamp.begin(), stamp.end(), 0);
+    scratch->current = 1;
+  }
+  const uint32_t current = scratch->current;
+  int count = 0;
+  const size_t n = c.cell_of_keypoint.size();
+  for (const FeatureMatch& m : matches) {
+    const Point2DIdx idx = first ? m.idx1 : m.idx2;
+    if (idx >= n) continue;
+    uint32_t& s = stamp[c.cell_of_keypoint[idx]];
+    if (s != current) {
+      s = current;
+      ++count;
+    }
+  }
+  return count;
+}
+
 int CoverageGrid::CoveredCells(ImageId image_id,
                                const std::vector<FeatureMatch>& matches,
                                bool first) {
-  const ImageCells& c = Cells(image_id);
-  std::vector<int> cells;
-  cells.reserve(matches.size());
-  for (const FeatureMatch& m : matches) {
-    const Point2DIdx idx = first ? m.idx1 : m.idx2;
-    if (idx < c.cell_of_keypoint.size()) {
-      cells.push_back(c.cell_of_keypoint[idx]);
-    }
+  return CountCells(Cells(image_id), matches, first, &scratch_);
+}
+
+int CoverageGrid::CoveredCells(ImageId image_id,
+                               const std::vector<FeatureMatch>& matches,
+                               bool first, Scratch* scratch) const {
+  auto it = cells_.find(image_id);
+  if (it == cells_.end()) {
+    throw Error(StrCat("coverage grid: image ", image_id, " was not loaded"));
   }
-  std::sort(cells.begin(), cells.end());
-  return static_cast<int>(std::unique(cells.begin(), cells.end()) -
-                          cells.begin());
+  return CountCells(it->second, matches, first, scratch);
 }
 
 int CoverageGrid::TexturedCells(ImageId image_id) {

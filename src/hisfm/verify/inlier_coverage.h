@@ -5,6 +5,7 @@
 // matcher samples it (used by context_disambiguator.h and pair_filter.h).
 #pragma once
 
+#include <cstdint>
 #include <unordered_map>
 #include <vector>
 
@@ -27,9 +28,23 @@ class CoverageGrid {
   /// Cells of an image holding any keypoint.
   int TexturedCells(ImageId image_id);
 
+  /// Scratch memory of CoveredCells; one per thread.
+  struct Scratch {
+    std::vector<uint32_t> stamp;
+    uint32_t current = 0;
+  };
+  /// Loads (and caches) an image's keypoint cells, so that the const
+  /// CoveredCells below can be used on it.
+  void Load(ImageId image_id) { Cells(image_id); }
+  /// As CoveredCells above, for an image already loaded (throws otherwise);
+  /// safe to call from several threads at once, each with its own scratch.
+  int CoveredCells(ImageId image_id, const std::vector<FeatureMatch>& matches,
+                   bool first, Scratch* scratch) const;
+
  private:
   struct ImageCells {
     std::vector<int> cell_of_keypoint;
+    int num_cells = 0;
     int num_textured_cells = 0;
   };
   const ImageCells& Cells(ImageId image_id);
@@ -39,6 +54,11 @@ class CoverageGrid {
   std::unordered_map<CameraId, DatabaseCamera> cameras_;
   std::unordered_map<ImageId, CameraId> camera_of_image_;
   std::unordered_map<ImageId, ImageCells> cells_;
+  static int CountCells(const ImageCells& cells,
+                        const std::vector<FeatureMatch>& matches, bool first,
+                        Scratch* scratch);
+  // Scratch of the non-const CoveredCells.
+  Scratch scratch_;
 };
 
 }  // namespace hisfm

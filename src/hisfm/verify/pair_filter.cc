@@ -29,6 +29,7 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   options.Check();
   Timer timer;
   PairFilterResult result;
+  const Database::ReadScope read_scope(database);
   const TrackConsistency tracks(database, graph);
   result.inconsistent_track_fraction = tracks.InconsistentFraction();
 
@@ -36,9 +37,25 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   std::vector<ViewGraphEdge> kept_a;
   // Distinctive inliers of each pair kept by A: ranks third views for B.
   std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
+  std::unordered_map<ImagePair, DistinctiveSupport, ImagePairHash> support;
+  {
+    std::vector<ImagePair> pairs;
+    pairs.reserve(graph.NumEdges());
+    for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
+    support.reserve(pairs.size());
+    database.ForEachInlierMatches(
+        std::move(pairs), [&](const ImagePair& pair,
+                              const std::vector<FeatureMatch>& inliers) {
+          support[pair] = tracks.Support(pair, inliers);
+        });
+  }
   for (const ViewGraphEdge& e : graph.Edges()) {
-    const DistinctiveSupport s = tracks.Support(
-        database.ReadTwoViewGeometry(e.pair.image_id1, e.pair.image_id2));
+    auto it = support.find(e.pair);
+    if (it == support.end()) {
+      throw Error(StrCat("no two-view geometry for images ", e.pair.image_id1,
+                         " and ", e.pair.image_id2, " in ", database.path()));
+    }
+    const DistinctiveSupport& s = it->second;
     if (options.min_distinctive_ratio > 0 &&
         s.Deficient(options.min_distinctive_ratio,
                     options.distinctive_significance)) {

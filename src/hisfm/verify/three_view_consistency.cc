@@ -66,11 +66,13 @@ std::shared_ptr<const PairGeometryCache::PairGeometry> PairGeometryCache::Pair(
   const size_t step = std::max<size_t>(1, g.inlier_matches.size() /
                                               kMaxPoseVotes);
   std::vector<Eigen::Vector2d> x1, x2;
+  out->to2.assign(n1.size(), PairGeometry::kNoMatch);
+  out->to1.assign(n2.size(), PairGeometry::kNoMatch);
   for (size_t k = 0; k < g.inlier_matches.size(); ++k) {
     const FeatureMatch& m = g.inlier_matches[k];
     if (m.idx1 >= n1.size() || m.idx2 >= n2.size()) continue;
-    out->to2[m.idx1] = m.idx2;
-    out->to1[m.idx2] = m.idx1;
+    out->to2[m.idx1] = static_cast<int32_t>(m.idx2);
+    out->to1[m.idx2] = static_cast<int32_t>(m.idx1);
     if (k % step == 0) {
       x1.push_back(n1[m.idx1]);
       x2.push_back(n2[m.idx2]);
@@ -146,7 +148,9 @@ ThreeViewResult MeasureThreeViewConsistency(
   const std::vector<Eigen::Vector2d>& ny = cache.Normalized(y);
   const std::vector<Eigen::Vector2d>& nt = cache.Normalized(t);
   const Eigen::Vector3d center_t = t_from_x.Inverse().translation;
+  // angle < min_angle <=> cos(angle) > cos(min_angle): no acos per point.
   const double min_angle = options.min_triangulation_angle_deg * M_PI / 180.0;
+  const double cos_min_angle = std::cos(min_angle);
   const Eigen::Matrix3d R_yx = y_from_x.rotation.toRotationMatrix();
   const Projection P_xt[2] = {ProjectionOf(Rigid3d()), ProjectionOf(t_from_x)};
 
@@ -155,19 +159,30 @@ ThreeViewResult MeasureThreeViewConsistency(
   };
   std::vector<Shared> shared;
   std::vector<double> scales;
-  for (const auto& [kx, kt] : x_to_t) {
-    auto it = x_to_y.find(kx);
-    if (it == x_to_y.end()) continue;
+  const size_t num_x = std::min(x_to_t.size(), x_to_y.size());
+  for (size_t kx = 0; kx < num_x; ++kx) {
+    const int32_t kt = x_to_t[kx];
+    const int32_t ky = x_to_y[kx];
+    if (kt == PairGeometryCache::PairGeometry::kNoMatch ||
+        ky == PairGeometryCache::PairGeometry::kNoMatch) {
+      continue;
+    }
     const Eigen::Vector2d uxt[2] = {nx[kx], nt[kt]};
     const Eigen::Vector3d X = TriangulateLinear(P_xt, uxt, 2);
     if (!X.allFinite() || X.z() <= 0 || (t_from_x * X).z() <= 0) continue;
-    if (TriangulationAngle(Eigen::Vector3d::Zero(), center_t, X) < min_angle) {
-      continue;
+    {
+      // The angle at X between the rays to the centres of x and t.
+      const Eigen::Vector3d r2 = X - center_t;
+      const double n = X.norm() * r2.norm();
+      const bool too_small =
+          n <= 0 ? min_angle > 0
+                 : std::clamp(X.dot(r2) / n, -1.0, 1.0) > cos_min_angle;
+      if (too_small) continue;
     }
-    shared.push_back({{nx[kx], nt[kt], ny[it->second]}});
-    if (!tracks.IsDistinctive(x, kx)) continue;
+    shared.push_back({{nx[kx], nt[kt], ny[ky]}});
+    if (!tracks.IsDistinctive(x, static_cast<uint32_t>(kx))) continue;
     // Scale s of y's baseline that puts X on y's ray: u x (R X + s t) = 0.
-    const Eigen::Vector3d u = ny[it->second].homogeneous();
+    const Eigen::Vector3d u = ny[ky].homogeneous();
     const Eigen::Vector3d a = u.cross(R_yx * X);
     const Eigen::Vector3d b = u.cross(y_from_x.translation);
     if (b.squaredNorm() > 1e-12) scales.push_back(-a.dot(b) / b.squaredNorm());

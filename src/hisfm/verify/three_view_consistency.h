@@ -86,9 +86,11 @@ class PairGeometryCache {
     bool has_pose = false;
     /// cam2_from_cam1 of pair.image_id1 -> pair.image_id2, unit baseline.
     Rigid3d cam2_from_cam1;
-    /// Keypoint of image 2 matched to a keypoint of image 1, and back.
-    std::unordered_map<uint32_t, uint32_t> to2;
-    std::unordered_map<uint32_t, uint32_t> to1;
+    /// Keypoint of image 2 matched to each keypoint of image 1 (indexed by
+    /// keypoint, kNoMatch if none), and back.
+    std::vector<int32_t> to2;
+    std::vector<int32_t> to1;
+    static constexpr int32_t kNoMatch = -1;
   };
 
   /// The pair's geometry (throws hisfm::Error if the pair is absent). With

@@ -4,34 +4,51 @@
 #include <cmath>
 
 #include "hisfm/graph/union_find.h"
+#include "hisfm/util/error.h"
 
 namespace hisfm {
 
 TrackConsistency::TrackConsistency(const Database& database,
                                    const ViewGraph& graph) {
   // Keypoints of all graph images, indexed densely.
+  const std::unordered_map<ImageId, size_t> num_keypoints =
+      database.ReadNumKeypoints();
   size_t total = 0;
+  images_.reserve(graph.NumImages());
   for (ImageId id : graph.Images()) {
     ImageState s;
     s.offset = total;
-    s.num_keypoints = static_cast<size_t>(database.ReadKeypoints(id).rows());
+    auto it = num_keypoints.find(id);
+    s.num_keypoints = it == num_keypoints.end() ? 0 : it->second;
     total += s.num_keypoints;
     images_[id] = s;
   }
   state_.assign(total, kUnmatched);
   UnionFind tracks(total);
-  for (const ViewGraphEdge& e : graph.Edges()) {
-    const TwoViewGeometry g =
-        database.ReadTwoViewGeometry(e.pair.image_id1, e.pair.image_id2);
-    const ImageState& s1 = images_.at(g.pair.image_id1);
-    const ImageState& s2 = images_.at(g.pair.image_id2);
-    for (const FeatureMatch& m : g.inlier_matches) {
-      if (m.idx1 >= s1.num_keypoints || m.idx2 >= s2.num_keypoints) continue;
-      const size_t a = s1.offset + m.idx1;
-      const size_t b = s2.offset + m.idx2;
-      state_[a] = state_[b] = kDistinctive;
-      tracks.Union(a, b);
-    }
+  std::vector<ImagePair> pairs;
+  pairs.reserve(graph.NumEdges());
+  for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
+  size_t num_read = 0;
+  database.ForEachInlierMatches(
+      std::move(pairs), [&](const ImagePair& pair,
+                            const std::vector<FeatureMatch>& inliers) {
+        ++num_read;
+        const ImageState& s1 = images_.at(pair.image_id1);
+        const ImageState& s2 = images_.at(pair.image_id2);
+        for (const FeatureMatch& m : inliers) {
+          if (m.idx1 >= s1.num_keypoints || m.idx2 >= s2.num_keypoints) {
+            continue;
+          }
+          const size_t a = s1.offset + m.idx1;
+          const size_t b = s2.offset + m.idx2;
+          state_[a] = state_[b] = kDistinctive;
+          tracks.Union(a, b);
+        }
+      });
+  if (num_read != graph.NumEdges()) {
+    throw Error(StrCat("track consistency: ", graph.NumEdges() - num_read,
+                       " pair(s) of the view graph have no two-view geometry "
+                       "in ", database.path()));
   }
   // A track is inconsistent if two of its keypoints belong to one image:
   // sort the matched keypoints by (track, image) and look for neighbours.
@@ -120,13 +137,23 @@ double PoissonCdf(uint32_t k, double lambda) {
 
 DistinctiveSupport TrackConsistency::Support(
     const TwoViewGeometry& geometry) const {
+  return Support(geometry.pair, geometry.inlier_matches);
+}
+
+DistinctiveSupport TrackConsistency::Support(
+    const ImagePair& pair, const std::vector<FeatureMatch>& inliers) const {
   DistinctiveSupport s;
-  s.num_inliers = static_cast<uint32_t>(geometry.inlier_matches.size());
-  for (const FeatureMatch& m : geometry.inlier_matches) {
-    s.num_distinctive += IsDistinctive(geometry.pair.image_id1, m.idx1);
+  s.num_inliers = static_cast<uint32_t>(inliers.size());
+  auto it = images_.find(pair.image_id1);
+  if (it != images_.end()) {
+    const uint8_t* state = state_.data() + it->second.offset;
+    const size_t n = it->second.num_keypoints;
+    for (const FeatureMatch& m : inliers) {
+      s.num_distinctive += m.idx1 < n && state[m.idx1] == kDistinctive;
+    }
   }
-  s.image_fraction = std::min(DistinctiveFraction(geometry.pair.image_id1),
-                              DistinctiveFraction(geometry.pair.image_id2));
+  s.image_fraction = std::min(DistinctiveFraction(pair.image_id1),
+                              DistinctiveFraction(pair.image_id2));
   s.expected = s.image_fraction * s.num_inliers;
   if (s.expected > 0) {
     s.ratio = std::min(1.0, s.num_distinctive / s.expected);

@@ -66,8 +66,8 @@ class TrackConsistency {
   TrackConsistency() = default;
   /// Joins the inlier matches of every edge of `graph` (read from
   /// `database`) into tracks and marks the keypoints of inconsistent tracks.
-  /// Costs one read of every edge's two-view geometry and near-linear time
-  /// in the number of inlier matches.
+  /// Costs one read of every edge's inliers (in pair-id order, in one read
+  /// transaction) and near-linear time in the number of inlier matches.
   TrackConsistency(const Database& database, const ViewGraph& graph);
 
   /// True if keypoint `idx` of the image has an inlier match in some edge.
@@ -87,6 +87,10 @@ class TrackConsistency {
   /// The distinctive support of a pair's inliers (oriented like
   /// `geometry`).
   DistinctiveSupport Support(const TwoViewGeometry& geometry) const;
+  /// Same for inlier matches oriented like `pair` (idx1 indexes
+  /// pair.image_id1).
+  DistinctiveSupport Support(const ImagePair& pair,
+                             const std::vector<FeatureMatch>& inliers) const;
 
  private:
   enum : uint8_t { kUnmatched = 0, kDistinctive = 1, kRepeated = 2 };

@@ -60,12 +60,22 @@ int PoseFromEssential(const Eigen::Matrix3d& E,
   int best = 0;
   int best_count = -1;
   for (int c = 0; c < 4; ++c) {
-    const Rigid3d pose(Eigen::Quaterniond(rotations[c]), translations[c]);
+    const Eigen::Matrix3d& R = rotations[c];
+    const Eigen::Vector3d& tc = translations[c];
     int count = 0;
     for (size_t k = 0; k < x1.size(); ++k) {
-      const Eigen::Vector3d X = TriangulatePoint(pose, x1[k], x2[k]);
-      if (!X.allFinite()) continue;
-      if (X.z() > 0 && (pose * X).z() > 0) ++count;
+      // Depths d1, d2 with d1 R h1 + t ~ d2 h2 in the least-squares sense
+      // (the two rays' closest points): cheirality needs only their signs,
+      // which the 2x2 normal equations give without an SVD.
+      const Eigen::Vector3d a = R * x1[k].homogeneous();
+      const Eigen::Vector3d b = x2[k].homogeneous();
+      const double aa = a.squaredNorm(), ab = a.dot(b), bb = b.squaredNorm();
+      const double at = a.dot(tc), bt = b.dot(tc);
+      const double det = aa * bb - ab * ab;
+      if (!(std::abs(det) > 1e-12 * aa * bb)) continue;  // Parallel rays.
+      const double d1 = (ab * bt - bb * at) / det;
+      const double d2 = (aa * bt - ab * at) / det;
+      if (d1 > 0 && d2 > 0) ++count;
     }
     if (count > best_count) {
       best_count = count;

@@ -30,7 +30,9 @@ double TriangulationAngle(const Eigen::Vector3d& center1,
                           const Eigen::Vector3d& point);
 
 /// Decomposes `E` (x2^T E x1 = 0 on normalized points) and picks the
-/// candidate pose with most correspondences in front of both cameras.
+/// candidate pose with most correspondences in front of both cameras (depths
+/// of the rays' closest points, by 2x2 normal equations; correspondences
+/// with parallel rays do not vote).
 /// Writes the unit-baseline pose and returns the number of correspondences
 /// in front; returns 0 (and leaves the pose untouched) if E is degenerate or
 /// no correspondence is given.
