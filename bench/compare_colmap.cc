@@ -53,17 +53,9 @@ struct MethodResult {
   size_t verified_pairs = 0;
 };
 
-std::vector<Reconstruction> ReadModels(const std::string& dir) {
-  std::vector<Reconstruction> out;
-  for (int i = 0; fs::exists(dir + "/" + std::to_string(i)); ++i) {
-    out.push_back(ReadModel(dir + "/" + std::to_string(i)));
-  }
-  return out;
-}
-
 void Evaluate(const Scene& scene, const std::string& models_dir,
               const std::string& work, MethodResult* r) {
-  const std::vector<Reconstruction> models = ReadModels(models_dir);
+  const std::vector<Reconstruction> models = ReadNumberedModels(models_dir);
   r->num_models = models.size();
   size_t largest = 0;
   for (size_t i = 0; i < models.size(); ++i) {

@@ -51,13 +51,7 @@ void PrepareWorkspace(const std::string& path) {
 
 // The numbered models in `folder`, largest first.
 std::vector<Reconstruction> ReadModels(const std::string& folder) {
-  std::vector<Reconstruction> models;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    if (entry.is_directory(ec) && fs::exists(entry.path() / "images.bin")) {
-      models.push_back(ReadModelBinary(entry.path().string()));
-    }
-  }
+  std::vector<Reconstruction> models = ReadNumberedModels(folder);
   std::stable_sort(models.begin(), models.end(),
                    [](const Reconstruction& a, const Reconstruction& b) {
                      return a.NumRegImages() > b.NumRegImages();

@@ -103,6 +103,21 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  "Attach leaves with local bundle adjustment only, then one "
                  "global bundle adjustment")
       ->capture_default_str();
+  app.add_option("--HiSfM.scaffold_ba_global_ratio",
+                 o->scaffold_ba_global_ratio,
+                 "Scaffold: growth in images or points between global bundle "
+                 "adjustments (colmap's default 1.1)")
+      ->capture_default_str();
+  app.add_option("--HiSfM.scaffold_ba_global_max_refinements",
+                 o->scaffold_ba_global_max_refinements,
+                 "Scaffold: repetitions of each global bundle adjustment "
+                 "(colmap's default 5)")
+      ->capture_default_str();
+  app.add_option("--HiSfM.ba_global_function_tolerance",
+                 o->ba_global_function_tolerance,
+                 "Both colmap runs: relative cost change that ends a global "
+                 "bundle adjustment (colmap's default 0)")
+      ->capture_default_str();
   app.add_option("--HiSfM.global_bundle_adjustment",
                  o->global_bundle_adjustment,
                  "Run an extra colmap bundle_adjuster at the end")

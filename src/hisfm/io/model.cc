@@ -558,6 +558,19 @@ Reconstruction ReadModel(const std::string& path) {
   throw Error(StrCat("no COLMAP model (cameras.bin or cameras.txt) in ", path));
 }
 
+std::vector<Reconstruction> ReadNumberedModels(const std::string& folder) {
+  std::vector<Reconstruction> models;
+  for (int i = 0;; ++i) {
+    const std::string path = JoinPath(folder, std::to_string(i));
+    if (!ExistsFile(JoinPath(path, "cameras.bin")) &&
+        !ExistsFile(JoinPath(path, "cameras.txt"))) {
+      break;
+    }
+    models.push_back(ReadModel(path));
+  }
+  return models;
+}
+
 Reconstruction ReadModelBinary(const std::string& path) {
   CheckDirectoryExists(path, "COLMAP model");
   Reconstruction model;

@@ -11,6 +11,7 @@
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
 
 namespace fs = std::filesystem;
@@ -21,6 +22,9 @@ void HierarchicalMapperOptions::Check() const {
   HISFM_CHECK_OPTION(min_num_matches >= 1);
   HISFM_CHECK_OPTION(min_model_size >= 2);
   HISFM_CHECK_OPTION(filter_top_pairs >= 0);
+  HISFM_CHECK_OPTION(scaffold_ba_global_ratio >= 1.0);
+  HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements >= 1);
+  HISFM_CHECK_OPTION(ba_global_function_tolerance >= 0);
   hierarchy.Check();
   verifier.Check();
   colmap.Check();
@@ -310,6 +314,16 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
         "--image_list_path", dir + "/skeleton_images.txt"};
     args.insert(args.end(), options.mapper_args.begin(),
                 options.mapper_args.end());
+    for (const char* flag :
+         {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
+      AddDefaultFlag(options.mapper_args, flag,
+                     FormatScientific(options.scaffold_ba_global_ratio), &args);
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_max_refinements",
+                   std::to_string(options.scaffold_ba_global_max_refinements),
+                   &args);
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
+                   FormatScientific(options.ba_global_function_tolerance),
+                   &args);
     const double t_scaffold = RunColmapWithProgress(
         options.colmap, args, log, "Scaffold: registering images",
         comp.skeleton_images.size(), ParseMapperProgress);
@@ -334,6 +348,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
             dir + "/images.txt"};
     args.insert(args.end(), options.mapper_args.begin(),
                 options.mapper_args.end());
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
+                   FormatScientific(options.ba_global_function_tolerance),
+                   &args);
     if (options.attach_local_only) {
       // No periodic global bundle adjustment while attaching: local bundle
       // adjustment after each registration, one global one at the end.

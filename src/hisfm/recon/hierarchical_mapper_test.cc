@@ -12,6 +12,7 @@
 #include "hisfm/recon/exhaustive_filter.h"
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/string_util.h"
 #include "hisfm/util/test_util.h"
 
 namespace fs = std::filesystem;
@@ -167,6 +168,64 @@ TEST(HierarchicalMapper, CupIsCorrectWhereColmapFolds) {
 
 TEST(HierarchicalMapper, BooksIsCorrectWhereColmapFolds) {
   ExpectCorrect("yan2017/books", 21);
+}
+
+// The scaffold's bundle adjustment schedule and the global tolerance reach
+// colmap; an explicit --Mapper flag replaces HiSfM's default instead of
+// being repeated; the result stays correct on a synthetic ring.
+TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  SynthOptions synth;
+  synth.scene = "symmetric2";
+  synth.num_images = 24;
+  synth.seed = 1;
+  WriteSyntheticDataset(synth, tmp / "scene");
+  MapperPaths paths;
+  paths.database_path = tmp / "scene/database.db";
+  paths.image_path = tmp / "scene/images";
+  paths.output_path = tmp / "out";
+  HierarchicalMapperOptions options;
+  options.scaffold_ba_global_ratio = 1.4;
+  options.scaffold_ba_global_max_refinements = 3;
+  options.mapper_args = {"--Mapper.ba_global_function_tolerance", "1e-09"};
+  RunHierarchicalMapper(paths, options);
+  std::ifstream log(tmp / "out_work/component0/colmap.log");
+  std::vector<std::string> commands;
+  for (std::string line; std::getline(log, line);) {
+    if (line.rfind("$ colmap mapper", 0) == 0) commands.push_back(line + " ");
+  }
+  ASSERT_EQ(commands.size(), 2u) << "scaffold and attach";
+  const std::string& scaffold = commands[0];
+  const std::string& attach = commands[1];
+  EXPECT_NE(scaffold.find("--Mapper.ba_global_images_ratio 1.4 "),
+            std::string::npos) << scaffold;
+  EXPECT_NE(scaffold.find("--Mapper.ba_global_points_ratio 1.4 "),
+            std::string::npos) << scaffold;
+  EXPECT_NE(scaffold.find("--Mapper.ba_global_max_refinements 3 "),
+            std::string::npos) << scaffold;
+  for (const std::string& c : commands) {
+    EXPECT_EQ(CountOccurrences(c, "--Mapper.ba_global_function_tolerance"), 1u)
+        << c;
+    EXPECT_NE(c.find("--Mapper.ba_global_function_tolerance 1e-09 "),
+              std::string::npos) << c;
+  }
+  // The attach run keeps its own schedule: global adjustment only at the end.
+  EXPECT_NE(attach.find("--Mapper.ba_global_images_ratio 1000000 "),
+            std::string::npos) << attach;
+  const PoseEvaluation e =
+      EvaluateModel(ReadModel(tmp / "out/0"),
+                    ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(e.num_registered, 24u);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+
+  options.scaffold_ba_global_ratio = 0.9;
+  EXPECT_NE(ErrorOf(paths, options).find("scaffold_ba_global_ratio"),
+            std::string::npos);
+  options.scaffold_ba_global_ratio = 1.25;
+  options.ba_global_function_tolerance = -1;
+  EXPECT_NE(ErrorOf(paths, options).find("ba_global_function_tolerance"),
+            std::string::npos);
 }
 
 // Two unrelated synthetic scenes in one database: one model per connected

@@ -31,6 +31,15 @@ inline std::string FormatFixed(double value, int digits) {
   return out.str();
 }
 
+/// `value` as a stream prints it with 10 significant digits ("1e-06",
+/// "1.25"): for passing numbers to other programs' command lines.
+inline std::string FormatScientific(double value) {
+  std::ostringstream out;
+  out.precision(10);
+  out << value;
+  return out.str();
+}
+
 /// Number of non-overlapping occurrences of `what` in `text`.
 inline size_t CountOccurrences(const std::string& text,
                                const std::string& what) {
