@@ -143,7 +143,7 @@ int main(int argc, char** argv) {
   std::string work_path = "/tmp/hisfm-bench";
   std::string markdown_path;
   std::string verifier = "builtin";
-  int synth_images = 48;
+  int synth_images = 150;
   app.add_option("--scenes", scenes_arg,
                  "Comma-separated: names under yan2017/ in the data folder, "
                  "or synth:<scene>")

@@ -147,11 +147,12 @@ int main(int argc, char** argv) {
     std::vector<double> ns, graph_t, graph_mb, hisfm_t, colmap_t;
     std::ostringstream table;
     size_t printed = 0;
-    table << "| images | verified pairs | generate (s) | graph stage (s) | "
-             "graph peak (MB) | mapper scene pairs | hisfm mapper (s) | hisfm "
+    table << "| images | verified pairs | generate (s) | read + filter + "
+             "hierarchy (s) | graph stage (s) | graph peak (MB) | bridges "
+             "verified | mapper scene pairs | hisfm mapper (s) | hisfm "
              "pairs ≤5° | hisfm peak (MB) | colmap mapper (s) | colmap pairs "
              "≤5° | colmap peak (MB) | ratio |\n"
-          << "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+          << "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     std::stringstream list(sizes_arg);
     std::string item;
     while (std::getline(list, item, ',')) {
@@ -177,9 +178,18 @@ int main(int argc, char** argv) {
                          "/view_graph.log"));
       const nlohmann::json vg =
           nlohmann::json::parse(ReadTextFile(dir + "/view_graph.json"));
-      const double graph_seconds =
-          vg["timings"]["read_database"].get<double>() +
+      const double read_seconds = vg["timings"]["read_database"].get<double>();
+      const double filter_seconds = vg["timings"]["filter_pairs"].get<double>();
+      const double hierarchy_seconds =
           vg["timings"]["build_hierarchy"].get<double>();
+      const double graph_seconds =
+          read_seconds + filter_seconds + hierarchy_seconds;
+      const std::string verified_cell = StrCat(
+          vg["num_verified_bridges"].get<size_t>(), " (",
+          FormatFixed(100.0 * vg["num_verified_bridges"].get<double>() /
+                          std::max<size_t>(synth.num_verified_pairs, 1),
+                      1),
+          "%)");
 
       ProcessResult h, c;
       std::string h_verdict = "-", c_verdict = "-", mapper_pairs = "-";
@@ -227,10 +237,15 @@ int main(int argc, char** argv) {
       hisfm_t.push_back(h.finished && h.exit_code == 0 ? h.seconds : NAN);
       colmap_t.push_back(c.finished && c.exit_code == 0 ? c.seconds : NAN);
       table << "| " << n << " | " << synth.num_verified_pairs << " | "
-            << FormatFixed(synth.total_seconds, 1) << " | " << FormatFixed(graph_seconds, 2)
-            << " | " << FormatFixed(graph.peak_mb, 0) << " | " << time_cell(h)
+            << FormatFixed(synth.total_seconds, 1) << " | "
+            << FormatFixed(read_seconds, 2) << " + "
+            << FormatFixed(filter_seconds, 2) << " + "
+            << FormatFixed(hierarchy_seconds, 2) << " | "
+            << FormatFixed(graph_seconds, 2) << " | "
+            << FormatFixed(graph.peak_mb, 0) << " | " << verified_cell << " | "
+            << mapper_pairs << " | " << time_cell(h) << " | " << h_verdict
             << " | " << (n <= mapper_max_images ? FormatFixed(h.peak_mb, 0) : "-")
-            << " | " << time_cell(c) << " | "
+            << " | " << time_cell(c) << " | " << c_verdict << " | "
             << (n <= mapper_max_images ? FormatFixed(c.peak_mb, 0) : "-") << " | "
             << ratio_cell << " |\n";
       const std::string text = table.str();
