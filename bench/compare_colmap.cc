@@ -125,7 +125,9 @@ std::string Cells(const MethodResult& r) {
   out << Verdict(r) << " | " << r.registered
       << (r.num_models > 1 ? " (" + std::to_string(r.num_models) + " models)"
                            : "")
-      << " | " << FormatFixed(100 * r.within5, 1) << "% | " << r.proxy.points3D
+      << " | "
+      << (r.has_verdict ? FormatFixed(100 * r.within5, 1) + "%" : std::string("-"))
+      << " | " << r.proxy.points3D
       << " | " << FormatFixed(r.proxy.mean_reprojection_error, 2) << " | "
       << FormatFixed(r.proxy.mean_track_length, 2) << " | " << FormatFixed(r.seconds, 1)
       << " |";
