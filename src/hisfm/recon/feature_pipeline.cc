@@ -493,7 +493,6 @@ void ColmapLogFollower::Stop() {
   Poll();
   const size_t done = done_.load();
   if (s.total > 0 && done >= s.total) {
-    s.reporter->Update(s.total);
     s.reporter->Finish();
     return;
   }

@@ -1,5 +1,6 @@
 #include "hisfm/util/logging.h"
 
+#include <spdlog/fmt/fmt.h>
 #include <spdlog/sinks/base_sink.h>
 #include <unistd.h>
 
@@ -45,30 +46,49 @@ void SetLogLevel(const std::string& level) {
 
 void LogHeading(const std::string& title) { Logger().info("==> {}", title); }
 
-ProgressReporter::ProgressReporter(std::string what, size_t total)
+ProgressReporter::ProgressReporter(std::string what, size_t total,
+                                   double min_interval_seconds)
     : what_(std::move(what)),
       total_(total),
       tty_(isatty(fileno(stderr)) != 0),
       start_(std::chrono::steady_clock::now()),
-      last_print_(start_) {}
+      last_print_(start_) {
+  min_interval_seconds_ =
+      min_interval_seconds >= 0 ? min_interval_seconds : (tty_ ? 0.2 : 5.0);
+}
 
 void ProgressReporter::Update(size_t done) {
   done_ = done;
   const auto now = std::chrono::steady_clock::now();
+  if (!has_first_) {
+    has_first_ = true;
+    first_done_ = done;
+    first_time_ = now;
+  }
   const double since_print =
       std::chrono::duration<double>(now - last_print_).count();
-  if (done_ >= total_ || since_print < (tty_ ? 0.2 : 5.0)) return;
+  if (since_print < min_interval_seconds_) return;
   last_print_ = now;
-  const double elapsed = std::chrono::duration<double>(now - start_).count();
-  const double eta =
-      done_ > 0 ? elapsed * (static_cast<double>(total_) - done_) / done_ : 0.0;
+  std::string status;
+  if (done_ >= total_) {
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    status = fmt::format("{}/{}, finishing ({:.0f} s so far)", total_, total_,
+                         elapsed);
+  } else if (done_ > first_done_) {
+    const double rate_seconds =
+        std::chrono::duration<double>(now - first_time_).count() /
+        static_cast<double>(done_ - first_done_);
+    status = fmt::format("{}/{}, {:.0f} s left", done_, total_,
+                         rate_seconds * static_cast<double>(total_ - done_));
+  } else {
+    status = fmt::format("{}/{}", done_, total_);
+  }
   if (tty_) {
-    std::fprintf(stderr, "\r\033[K%s: %zu/%zu, %.0f s left", what_.c_str(),
-                 done_, total_, eta);
+    std::fprintf(stderr, "\r\033[K%s: %s", what_.c_str(), status.c_str());
     std::fflush(stderr);
     g_progress_line_active = true;
   } else {
-    Logger().info("{}: {}/{}, {:.0f} s left", what_, done_, total_, eta);
+    Logger().info("{}: {}", what_, status);
   }
 }
 

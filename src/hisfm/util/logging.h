@@ -23,8 +23,15 @@ void LogHeading(const std::string& title);
 /// seconds. Call Update() as work finishes and Finish() at the end.
 class ProgressReporter {
  public:
-  ProgressReporter(std::string what, size_t total);
-  /// Reports that `done` of `total` items are finished.
+  /// Lines are printed at most every `min_interval_seconds` (negative: 0.2 s
+  /// on a terminal, 5 s otherwise).
+  ProgressReporter(std::string what, size_t total,
+                   double min_interval_seconds = -1);
+  /// Reports that `done` of `total` items are finished. The time left is
+  /// extrapolated from the rate since the first update (a resumed count, such
+  /// as registrations on top of a scaffold, does not inflate the rate); once
+  /// `done` reaches `total` while the work goes on (a final bundle
+  /// adjustment), the line says "finishing" with the time spent.
   void Update(size_t done);
   /// Reports completion (prints the final line).
   void Finish();
@@ -32,7 +39,11 @@ class ProgressReporter {
  private:
   std::string what_;
   size_t total_;
+  double min_interval_seconds_;
   size_t done_ = 0;
+  bool has_first_ = false;
+  size_t first_done_ = 0;
+  std::chrono::steady_clock::time_point first_time_;
   bool tty_;
   bool finished_ = false;
   std::chrono::steady_clock::time_point start_;
