@@ -118,6 +118,11 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  "Both colmap runs: relative cost change that ends a global "
                  "bundle adjustment (colmap's default 0)")
       ->capture_default_str();
+  app.add_option("--HiSfM.ba_local_max_refinements",
+                 o->ba_local_max_refinements,
+                 "Both colmap runs: repetitions of each local bundle "
+                 "adjustment (colmap's default 2)")
+      ->capture_default_str();
   app.add_option("--HiSfM.global_bundle_adjustment",
                  o->global_bundle_adjustment,
                  "Run an extra colmap bundle_adjuster at the end")

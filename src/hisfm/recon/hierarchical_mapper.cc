@@ -25,6 +25,7 @@ void HierarchicalMapperOptions::Check() const {
   HISFM_CHECK_OPTION(scaffold_ba_global_ratio >= 1.0);
   HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements >= 1);
   HISFM_CHECK_OPTION(ba_global_function_tolerance >= 0);
+  HISFM_CHECK_OPTION(ba_local_max_refinements >= 1);
   hierarchy.Check();
   verifier.Check();
   colmap.Check();
@@ -324,6 +325,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
                    FormatScientific(options.ba_global_function_tolerance),
                    &args);
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
+                   std::to_string(options.ba_local_max_refinements), &args);
     const double t_scaffold = RunColmapWithProgress(
         options.colmap, args, log, "Scaffold: registering images",
         comp.skeleton_images.size(), ParseMapperProgress);
@@ -351,6 +354,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
                    FormatScientific(options.ba_global_function_tolerance),
                    &args);
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
+                   std::to_string(options.ba_local_max_refinements), &args);
     if (options.attach_local_only) {
       // No periodic global bundle adjustment while attaching: local bundle
       // adjustment after each registration, one global one at the end.

@@ -41,12 +41,16 @@ struct HierarchicalMapperOptions {
   /// Local bundle adjustment still follows every registration, and the
   /// attach run ends with a full global one, so the scaffold's intermediate
   /// global adjustments can be sparser. An explicit --Mapper flag wins.
-  double scaffold_ba_global_ratio = 1.25;
+  double scaffold_ba_global_ratio = 1.4;
   /// Scaffold run: global bundle adjustments repeated after filtering
   /// outliers at most this many times (colmap's
   /// --Mapper.ba_global_max_refinements, default 5). An explicit --Mapper
   /// flag wins.
   int scaffold_ba_global_max_refinements = 2;
+  /// Both runs: local bundle adjustment is repeated after filtering outliers
+  /// at most this many times (colmap's --Mapper.ba_local_max_refinements,
+  /// default 2). An explicit --Mapper flag wins.
+  int ba_local_max_refinements = 1;
   /// Both runs: global bundle adjustment stops when the relative change of
   /// its cost falls below this. colmap's --Mapper.ba_global_function_tolerance
   /// defaults to 0: an adjustment whose cost no longer moves keeps iterating

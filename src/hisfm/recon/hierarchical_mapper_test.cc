@@ -186,7 +186,8 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   paths.image_path = tmp / "scene/images";
   paths.output_path = tmp / "out";
   HierarchicalMapperOptions options;
-  options.scaffold_ba_global_ratio = 1.4;
+  options.scaffold_ba_global_ratio = 1.5;
+  options.ba_local_max_refinements = 3;
   options.scaffold_ba_global_max_refinements = 3;
   options.mapper_args = {"--Mapper.ba_global_function_tolerance", "1e-09"};
   RunHierarchicalMapper(paths, options);
@@ -198,9 +199,9 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   ASSERT_EQ(commands.size(), 2u) << "scaffold and attach";
   const std::string& scaffold = commands[0];
   const std::string& attach = commands[1];
-  EXPECT_NE(scaffold.find("--Mapper.ba_global_images_ratio 1.4 "),
+  EXPECT_NE(scaffold.find("--Mapper.ba_global_images_ratio 1.5 "),
             std::string::npos) << scaffold;
-  EXPECT_NE(scaffold.find("--Mapper.ba_global_points_ratio 1.4 "),
+  EXPECT_NE(scaffold.find("--Mapper.ba_global_points_ratio 1.5 "),
             std::string::npos) << scaffold;
   EXPECT_NE(scaffold.find("--Mapper.ba_global_max_refinements 3 "),
             std::string::npos) << scaffold;
@@ -208,6 +209,8 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
     EXPECT_EQ(CountOccurrences(c, "--Mapper.ba_global_function_tolerance"), 1u)
         << c;
     EXPECT_NE(c.find("--Mapper.ba_global_function_tolerance 1e-09 "),
+              std::string::npos) << c;
+    EXPECT_NE(c.find("--Mapper.ba_local_max_refinements 3 "),
               std::string::npos) << c;
   }
   // The attach run keeps its own schedule: global adjustment only at the end.
@@ -222,7 +225,7 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   options.scaffold_ba_global_ratio = 0.9;
   EXPECT_NE(ErrorOf(paths, options).find("scaffold_ba_global_ratio"),
             std::string::npos);
-  options.scaffold_ba_global_ratio = 1.25;
+  options.scaffold_ba_global_ratio = 1.4;
   options.ba_global_function_tolerance = -1;
   EXPECT_NE(ErrorOf(paths, options).find("ba_global_function_tolerance"),
             std::string::npos);
