@@ -117,11 +117,11 @@ int CameraModelNameToId(const std::string& name);
 /// hisfm::Error with a one-line message if it is missing or malformed.
 Reconstruction ReadModel(const std::string& path);
 Reconstruction ReadModelBinary(const std::string& path);
+Reconstruction ReadModelText(const std::string& path);
 /// Reads the numbered models folder/0, folder/1, ... that colmap mapper
 /// writes, in that order, stopping at the first missing number; empty if
 /// there is none.
 std::vector<Reconstruction> ReadNumberedModels(const std::string& folder);
-Reconstruction ReadModelText(const std::string& path);
 /// Writes cameras.bin, images.bin and points3D.bin into an existing folder,
 /// each file through a temporary file and a rename. Records are written in
 /// model.file_order and values exactly as stored, so a binary model read and

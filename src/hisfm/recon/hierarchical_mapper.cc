@@ -171,6 +171,16 @@ void AddDefaultFlag(const std::vector<std::string>& user,
   args->push_back(value);
 }
 
+// The bundle adjustment flags both colmap runs share (an explicit --Mapper
+// flag of the user's wins).
+void AddBundleAdjustmentFlags(const HierarchicalMapperOptions& options,
+                              std::vector<std::string>* args) {
+  AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
+                 FormatScientific(options.ba_global_function_tolerance), args);
+  AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
+                 std::to_string(options.ba_local_max_refinements), args);
+}
+
 void WriteImageList(const std::vector<ImageId>& ids,
                     const std::unordered_map<ImageId, std::string>& names,
                     const std::string& path) {
@@ -322,11 +332,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_max_refinements",
                    std::to_string(options.scaffold_ba_global_max_refinements),
                    &args);
-    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
-                   FormatScientific(options.ba_global_function_tolerance),
-                   &args);
-    AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
-                   std::to_string(options.ba_local_max_refinements), &args);
+    AddBundleAdjustmentFlags(options, &args);
     const double t_scaffold = RunColmapWithProgress(
         options.colmap, args, log, "Scaffold: registering images",
         comp.skeleton_images.size(), ParseMapperProgress);
@@ -351,11 +357,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
             dir + "/images.txt"};
     args.insert(args.end(), options.mapper_args.begin(),
                 options.mapper_args.end());
-    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_function_tolerance",
-                   FormatScientific(options.ba_global_function_tolerance),
-                   &args);
-    AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
-                   std::to_string(options.ba_local_max_refinements), &args);
+    AddBundleAdjustmentFlags(options, &args);
     if (options.attach_local_only) {
       // No periodic global bundle adjustment while attaching: local bundle
       // adjustment after each registration, one global one at the end.

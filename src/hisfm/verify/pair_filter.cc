@@ -155,10 +155,10 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
       std::vector<int> cells;
       size_t best = 0;
       for (size_t k = 0; k < strongest.size(); ++k) {
-        const TwoViewGeometry g =
-            database.ReadTwoViewGeometry(x, strongest[k].second);
-        cells.push_back(grid.CoveredCells(x, g.inlier_matches,
-                                          g.pair.image_id1 == x));
+        const std::vector<FeatureMatch> inliers =
+            database.ReadInlierMatches(x, strongest[k].second);
+        cells.push_back(
+            grid.CoveredCells(x, inliers, x < strongest[k].second));
         if (cells[k] > cells[best]) best = k;
       }
       for (size_t k = 0; k < best; ++k) {
