@@ -9,6 +9,7 @@
 #include "hisfm/graph/union_find.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
 
 namespace hisfm {
 
@@ -278,6 +279,7 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
 Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
                        BridgeScorer* scorer, const SkeletonOptions& options) {
   options.Check();
+  const Timer timer;
   Skeleton skeleton;
   skeleton.num_trees = options.NumTreesFor(graph.NumImages());
   const size_t m = communities.NumCommunities();
@@ -389,6 +391,9 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
         candidates.end());
   }
 
+  HISFM_LOG_DEBUG("skeleton: {} trees, {} bridges verified ({:.2f} s)",
+                  skeleton.num_trees, skeleton.num_verified,
+                  timer.ElapsedSeconds());
   // K edge-disjoint spanning forests are K-edge-connected in every
   // component: the repair is needed only when a tree fell short.
   if (options.restore_connectivity && skeleton.num_trees > 1 &&
@@ -446,6 +451,8 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
     ++num_top;
   }
 
+  HISFM_LOG_DEBUG("skeleton: repair and extra bridges done ({:.2f} s)",
+                  timer.ElapsedSeconds());
   std::set<ImageId> skeletal;
   for (const BridgeRecord& r : skeleton.bridges) {
     skeletal.insert(r.pair.image_id1);

@@ -54,7 +54,7 @@ struct SkeletonOptions {
   /// rejected, as many as the rejections met since the last bridge taken
   /// (plus one): long runs of doppelgangers are verified in full batches,
   /// while a scene whose bridges mostly pass is verified lazily.
-  int max_verify_batch_size = 64;
+  int max_verify_batch_size = 256;
   /// When greedy packing leaves the trees' union less than K-edge-connected
   /// (greedy Kruskal can miss a packing that exists), add the heaviest
   /// verified bridges across each deficient minimum cut until every

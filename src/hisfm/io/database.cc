@@ -3,9 +3,12 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <condition_variable>
 #include <cstring>
+#include <deque>
 #include <exception>
 #include <filesystem>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -285,30 +288,22 @@ std::vector<FeatureMatch> Database::ReadInlierMatches(ImageId a,
   return out;
 }
 
-void Database::ForEachInlierMatches(
-    std::vector<ImagePair> pairs,
-    const std::function<void(const ImagePair&,
-                             const std::vector<FeatureMatch>&)>& fn) const {
-  std::vector<PairId> ids;
-  ids.reserve(pairs.size());
-  for (const ImagePair& p : pairs) {
-    ids.push_back(ImagePairToPairId(p.image_id1, p.image_id2));
-  }
-  pairs.clear();
-  pairs.shrink_to_fit();
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  ReadScope scope(*this);
-  // One forward scan from the first wanted pair: rows between wanted ones
-  // are stepped over without reading their matches, and the scan seeks
-  // afresh (one b-tree descent) when it would step over more than a few
-  // rows (a row of inliers fills most of a page, so stepping over a row
-  // costs about as much as reading it).
+namespace {
+
+// Scans the inlier matches of the sorted, unique pair ids `ids` through `db`
+// and calls `emit(pair_id, matches, num_matches)` for each present one, in
+// order. One forward scan from the first wanted pair: rows between wanted
+// ones are stepped over without reading their matches, and the scan seeks
+// afresh (one b-tree descent) when it would step over more than a few rows
+// (a row of inliers fills most of a page, so stepping over a row costs about
+// as much as reading it).
+template <typename Emit>
+void ScanInlierMatches(sqlite3* db, const std::vector<PairId>& ids,
+                       Emit&& emit) {
   constexpr int kMaxSkippedRows = 2;
-  SqliteStatement stmt(db_,
+  SqliteStatement stmt(db,
                        "SELECT pair_id, rows, data FROM two_view_geometries "
                        "WHERE pair_id >= ? ORDER BY pair_id");
-  std::vector<FeatureMatch> matches;
   const size_t n = ids.size();
   size_t next = 0;  // Next wanted id.
   while (next < n) {
@@ -340,11 +335,10 @@ void Database::ForEachInlierMatches(
               static_cast<size_t>(rows) * 2 * sizeof(uint32_t)) {
         throw Error("database error: corrupt match blob");
       }
-      matches.resize(rows);
       static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
                     "FeatureMatch must be two packed uint32");
-      if (rows > 0) std::memcpy(matches.data(), data, bytes);
-      fn(PairIdToImagePair(id), matches);
+      emit(id, static_cast<const FeatureMatch*>(data),
+           static_cast<size_t>(rows));
       if (++next == n) {
         table_ended = false;
         break;
@@ -354,6 +348,122 @@ void Database::ForEachInlierMatches(
     if (table_ended) break;
   }
   stmt.Reset();
+}
+
+// Pairs read ahead, handed from the reading thread to the caller's.
+struct MatchChunk {
+  std::vector<PairId> ids;
+  // Matches of ids[k]: [offsets[k], offsets[k + 1]) of `matches`.
+  std::vector<size_t> offsets{0};
+  std::vector<FeatureMatch> matches;
+};
+
+}  // namespace
+
+void Database::ForEachInlierMatches(
+    std::vector<ImagePair> pairs,
+    const std::function<void(const ImagePair&,
+                             const std::vector<FeatureMatch>&)>& fn) const {
+  std::vector<PairId> ids;
+  ids.reserve(pairs.size());
+  for (const ImagePair& p : pairs) {
+    ids.push_back(ImagePairToPairId(p.image_id1, p.image_id2));
+  }
+  pairs.clear();
+  pairs.shrink_to_fit();
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  std::vector<FeatureMatch> matches;
+  auto call = [&](PairId id, const FeatureMatch* data, size_t rows) {
+    matches.assign(data, data + rows);
+    fn(PairIdToImagePair(id), matches);
+  };
+
+  // Many pairs: a second connection reads ahead on its own thread while
+  // `fn` runs on this one.
+  constexpr size_t kMinPairsToReadAhead = 4096;
+  constexpr size_t kChunkPairs = 512;
+  constexpr size_t kMaxQueuedChunks = 4;
+  sqlite3* reader = nullptr;
+  if (ids.size() >= kMinPairsToReadAhead &&
+      sqlite3_open_v2(path_.c_str(), &reader, SQLITE_OPEN_READONLY,
+                      nullptr) != SQLITE_OK) {
+    sqlite3_close(reader);
+    reader = nullptr;
+  }
+  if (!reader) {
+    ReadScope scope(*this);
+    ScanInlierMatches(db_, ids, call);
+    return;
+  }
+  sqlite3_busy_timeout(reader, 5000);
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::deque<MatchChunk> queue;
+  bool done = false, stop = false;
+  std::exception_ptr error;
+  std::thread producer([&] {
+    MatchChunk chunk;
+    auto push = [&] {
+      std::unique_lock<std::mutex> lock(mutex);
+      changed.wait(lock,
+                   [&] { return stop || queue.size() < kMaxQueuedChunks; });
+      if (stop) throw Error("reading stopped");
+      queue.push_back(std::move(chunk));
+      changed.notify_all();
+      chunk = MatchChunk();
+    };
+    try {
+      sqlite3_exec(reader, "BEGIN;", nullptr, nullptr, nullptr);
+      ScanInlierMatches(reader, ids,
+                        [&](PairId id, const FeatureMatch* data, size_t rows) {
+                          chunk.ids.push_back(id);
+                          chunk.matches.insert(chunk.matches.end(), data,
+                                               data + rows);
+                          chunk.offsets.push_back(chunk.matches.size());
+                          if (chunk.ids.size() == kChunkPairs) push();
+                        });
+      if (!chunk.ids.empty()) push();
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mutex);
+      if (!stop) error = std::current_exception();
+    }
+    sqlite3_exec(reader, "COMMIT;", nullptr, nullptr, nullptr);
+    std::lock_guard<std::mutex> lock(mutex);
+    done = true;
+    changed.notify_all();
+  });
+  auto finish = [&] {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      stop = true;
+      changed.notify_all();
+    }
+    producer.join();
+    sqlite3_close(reader);
+  };
+  try {
+    while (true) {
+      MatchChunk chunk;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        changed.wait(lock, [&] { return done || !queue.empty(); });
+        if (queue.empty()) break;
+        chunk = std::move(queue.front());
+        queue.pop_front();
+        changed.notify_all();
+      }
+      for (size_t k = 0; k < chunk.ids.size(); ++k) {
+        call(chunk.ids[k], chunk.matches.data() + chunk.offsets[k],
+             chunk.offsets[k + 1] - chunk.offsets[k]);
+      }
+    }
+  } catch (...) {
+    finish();
+    throw;
+  }
+  finish();
+  if (error) std::rethrow_exception(error);
 }
 
 std::unordered_map<ImageId, size_t> Database::ReadNumKeypoints() const {

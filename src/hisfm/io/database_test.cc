@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <algorithm>
 #include <random>
 #include <set>
 
@@ -163,6 +164,49 @@ TEST(Database, BulkAndInlierReadsAgreeWithFullReads) {
   for (const auto& [id, n] : num_keypoints) {
     EXPECT_EQ(n, static_cast<size_t>(db.ReadKeypoints(id).rows()));
   }
+}
+
+// Enough pairs for the bulk read to read ahead on a second connection: the
+// same pairs, contents and order as the one-connection read, and an
+// exception thrown by the callback stops the reader and reaches the caller.
+TEST(Database, BulkReadsOfManyPairsReadAhead) {
+  TempDir tmp;
+  const std::string path = tmp / "db.db";
+  WriteRandomDatabase(path, 100, 3);
+  Database db(path);
+  std::vector<ImagePair> requested;
+  for (ImageId i = 100; i >= 1; --i) {
+    for (ImageId j = 100; j > i; --j) requested.push_back(ImagePair(j, i));
+  }
+  requested.push_back(ImagePair(1, 101));  // absent
+  ASSERT_EQ(requested.size(), 4951u);
+  std::vector<PairId> visited;
+  db.ForEachInlierMatches(
+      requested,
+      [&](const ImagePair& pair, const std::vector<FeatureMatch>& matches) {
+        visited.push_back(ImagePairToPairId(pair.image_id1, pair.image_id2));
+        const size_t expected =
+            15 + (pair.image_id1 * pair.image_id2) % 7;
+        ASSERT_EQ(matches.size(), expected);
+        for (size_t k = 0; k < matches.size(); ++k) {
+          EXPECT_EQ(matches[k].idx1, k);
+          EXPECT_EQ(matches[k].idx2, k + 1);
+        }
+      });
+  ASSERT_EQ(visited.size(), 4950u);
+  EXPECT_TRUE(std::is_sorted(visited.begin(), visited.end()));
+  EXPECT_EQ(visited.front(), ImagePairToPairId(1, 2));
+  EXPECT_EQ(visited.back(), ImagePairToPairId(99, 100));
+
+  size_t num_calls = 0;
+  EXPECT_THROW(db.ForEachInlierMatches(
+                   requested,
+                   [&](const ImagePair&, const std::vector<FeatureMatch>&) {
+                     if (++num_calls == 3000) throw Error("stop here");
+                   }),
+               Error);
+  EXPECT_EQ(num_calls, 3000u);
+  EXPECT_EQ(db.ReadInlierMatches(3, 6).size(), 15u + 18 % 7);
 }
 
 TEST(Database, PairIdsMatchColmap) {

@@ -6,6 +6,8 @@
 #include <thread>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/timer.h"
 
 namespace hisfm {
 
@@ -115,14 +117,19 @@ double ContextDisambiguator::SceneReferenceFraction() {
 }
 
 const TrackConsistency& ContextDisambiguator::Tracks() {
-  if (!tracks_) tracks_ = std::make_unique<TrackConsistency>(database_, graph_);
+  if (!tracks_) {
+    const Timer timer;
+    tracks_ = std::make_unique<TrackConsistency>(database_, graph_);
+    HISFM_LOG_DEBUG("builtin verifier: tracks of {} pairs ({:.2f} s)",
+                    graph_.NumEdges(), timer.ElapsedSeconds());
+  }
   return *tracks_;
 }
 
 ContextDisambiguator::~ContextDisambiguator() = default;
 
 size_t ContextDisambiguator::PreferredBatchSize() const {
-  return options_.num_threads > 1 ? 32 : 1;
+  return options_.num_threads > 1 ? 256 : 1;
 }
 
 void ContextDisambiguator::Prepare(const ImagePair& pair) {

@@ -4,6 +4,7 @@
 #include <unordered_map>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/inlier_coverage.h"
 #include "hisfm/verify/track_consistency.h"
@@ -32,6 +33,8 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   const Database::ReadScope read_scope(database);
   const TrackConsistency tracks(database, graph);
   result.inconsistent_track_fraction = tracks.InconsistentFraction();
+  HISFM_LOG_DEBUG("pair filter: tracks of {} pairs ({:.2f} s)",
+                  graph.NumEdges(), timer.ElapsedSeconds());
 
   // Test A.
   std::vector<ViewGraphEdge> kept_a;
@@ -66,6 +69,9 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
     num_distinctive[e.pair] = s.num_distinctive;
     kept_a.push_back(e);
   }
+
+  HISFM_LOG_DEBUG("pair filter: test A kept {} pairs ({:.2f} s)",
+                  kept_a.size(), timer.ElapsedSeconds());
 
   // Test B on the pairs kept by A. The third views of an image are its
   // neighbours (among those pairs) holding the most distinctive inliers:
@@ -131,6 +137,9 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
       kept.push_back(e);
     }
   }
+
+  HISFM_LOG_DEBUG("pair filter: test B kept {} pairs ({:.2f} s)", kept.size(),
+                  timer.ElapsedSeconds());
 
   // Test C on the pairs kept by A and B.
   if (options.min_relative_coverage > 0) {

@@ -20,6 +20,7 @@ void ThreeViewOptions::Check() const {
   HISFM_CHECK_OPTION(min_triangulation_angle_deg >= 0 &&
                      min_triangulation_angle_deg < 90);
   HISFM_CHECK_OPTION(min_scale_points >= 1);
+  HISFM_CHECK_OPTION(max_shared_points >= 0);
 }
 
 PairGeometryCache::PairGeometryCache(const Database& database)
@@ -159,14 +160,22 @@ ThreeViewResult MeasureThreeViewConsistency(
   };
   std::vector<Shared> shared;
   std::vector<double> scales;
+  // Keypoints of x matched in both pairs, subsampled evenly.
+  std::vector<uint32_t> candidates;
   const size_t num_x = std::min(x_to_t.size(), x_to_y.size());
   for (size_t kx = 0; kx < num_x; ++kx) {
+    if (x_to_t[kx] != PairGeometryCache::PairGeometry::kNoMatch &&
+        x_to_y[kx] != PairGeometryCache::PairGeometry::kNoMatch) {
+      candidates.push_back(static_cast<uint32_t>(kx));
+    }
+  }
+  const size_t max_points = static_cast<size_t>(options.max_shared_points);
+  const size_t stride =
+      max_points == 0 ? 1 : (candidates.size() + max_points - 1) / max_points;
+  for (size_t c = 0; c < candidates.size(); c += std::max<size_t>(stride, 1)) {
+    const uint32_t kx = candidates[c];
     const int32_t kt = x_to_t[kx];
     const int32_t ky = x_to_y[kx];
-    if (kt == PairGeometryCache::PairGeometry::kNoMatch ||
-        ky == PairGeometryCache::PairGeometry::kNoMatch) {
-      continue;
-    }
     const Eigen::Vector2d uxt[2] = {nx[kx], nt[kt]};
     const Eigen::Vector3d X = TriangulateLinear(P_xt, uxt, 2);
     if (!X.allFinite() || X.z() <= 0 || (t_from_x * X).z() <= 0) continue;

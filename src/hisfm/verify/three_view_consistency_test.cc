@@ -20,6 +20,9 @@ TEST(ThreeViewOptions, CheckRejectsBadValues) {
   o = ThreeViewOptions();
   o.min_scale_points = 0;
   EXPECT_THROW(o.Check(), Error);
+  o = ThreeViewOptions();
+  o.max_shared_points = -1;
+  EXPECT_THROW(o.Check(), Error);
 }
 
 // The street's pairs as seen from their first image, through its
@@ -65,6 +68,45 @@ TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
   }
   EXPECT_GE(num_true, 10);
   EXPECT_GE(num_mixed, 3);
+}
+
+// An evenly spaced subset of the shared keypoints gives the verdict of all
+// of them, at a fraction of the triangulations.
+TEST(ThreeViewConsistency, SubsampledSharedPointsKeepTheVerdict) {
+  TempDir dir("hisfm-threeview");
+  const street_test::Scene scene =
+      street_test::Write(dir / "database.db", {16, true, 5});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const TrackConsistency tracks(db, graph);
+  PairGeometryCache cache(db);
+  ThreeViewOptions all;
+  all.max_shared_points = 0;
+  ThreeViewOptions sampled;
+  sampled.max_shared_points = 40;
+  int num_compared = 0;
+  for (const auto& [pair, shift] : scene.shift) {
+    const ImageId x = pair.image_id1;
+    const ImageId t = x > 1 ? x - 1 : x + 1;
+    if (t == pair.image_id2 || !graph.HasImage(t) ||
+        !scene.shift.count(ImagePair(x, t))) {
+      continue;
+    }
+    const auto xy = cache.Pair(pair);
+    const ThreeViewResult full =
+        MeasureThreeViewConsistency(cache, tracks, *xy, x, t, all);
+    const ThreeViewResult part =
+        MeasureThreeViewConsistency(cache, tracks, *xy, x, t, sampled);
+    EXPECT_LE(part.num_shared, sampled.max_shared_points);
+    if (!full.judged || !part.judged || full.num_shared < 80) continue;
+    ++num_compared;
+    EXPECT_LT(part.num_shared, full.num_shared);
+    EXPECT_NEAR(part.fraction, full.fraction, 0.15)
+        << pair.image_id1 << "-" << pair.image_id2;
+    EXPECT_EQ(part.fraction < 0.5, full.fraction < 0.5)
+        << pair.image_id1 << "-" << pair.image_id2;
+  }
+  EXPECT_GE(num_compared, 10);
 }
 
 TEST(ThreeViewConsistency, RejectsAnImageOutsideThePair) {
