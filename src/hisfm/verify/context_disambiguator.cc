@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <functional>
 #include <thread>
 
 #include "hisfm/util/error.h"
@@ -19,6 +20,8 @@ void DisambiguatorOptions::Check() const {
   HISFM_CHECK_OPTION(distinctive_significance > 0 &&
                      distinctive_significance <= 1);
   HISFM_CHECK_OPTION(num_threads >= 1 && num_threads <= 64);
+  HISFM_CHECK_OPTION(bulk_after_fraction >= 0 && bulk_after_fraction <= 1);
+  HISFM_CHECK_OPTION(bulk_min_bridges >= 1);
 }
 
 struct ContextDisambiguator::Worker {
@@ -157,12 +160,19 @@ BridgeEvidence ContextDisambiguator::Evaluate(const ImagePair& pair) {
 BridgeEvidence ContextDisambiguator::Measure(
     const Database& database, const ImagePair& pair,
     CoverageGrid::Scratch* scratch) const {
-  BridgeEvidence ev;
-  ev.pair = pair;
   // Oriented as stored: the smaller id first.
   const ImagePair p(pair.image_id1, pair.image_id2);
-  const std::vector<FeatureMatch> inliers =
-      database.ReadInlierMatches(p.image_id1, p.image_id2);
+  return MeasureInliers(pair,
+                        database.ReadInlierMatches(p.image_id1, p.image_id2),
+                        scratch);
+}
+
+BridgeEvidence ContextDisambiguator::MeasureInliers(
+    const ImagePair& pair, const std::vector<FeatureMatch>& inliers,
+    CoverageGrid::Scratch* scratch) const {
+  BridgeEvidence ev;
+  ev.pair = pair;
+  const ImagePair p(pair.image_id1, pair.image_id2);
   ev.num_inliers = static_cast<uint32_t>(inliers.size());
   ev.cells1 = grid_.CoveredCells(p.image_id1, inliers, true, scratch);
   ev.cells2 = grid_.CoveredCells(p.image_id2, inliers, false, scratch);
@@ -188,41 +198,59 @@ BridgeEvidence ContextDisambiguator::Measure(
   return ev;
 }
 
-std::vector<double> ContextDisambiguator::Score(
-    const std::vector<ImagePair>& pairs) {
-  for (const ImagePair& p : pairs) Prepare(p);
-  std::vector<double> scores(pairs.size());
-  const size_t num_threads = std::min<size_t>(
-      static_cast<size_t>(options_.num_threads), pairs.size());
-  if (num_threads <= 1) {
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      scores[i] = Measure(database_, pairs[i], &scratch_).score;
-    }
-    return scores;
+void ContextDisambiguator::MeasureAllBridges() {
+  bulk_done_ = true;
+  const Timer timer;
+  // The graph's edges, and so the bridges, are in pair-id order.
+  std::vector<ImagePair> bridges;
+  for (const ViewGraphEdge& e : graph_.Edges()) {
+    if (communities_.Of(e.pair.image_id1) != communities_.Of(e.pair.image_id2))
+      bridges.push_back(e.pair);
   }
+  for (const ImagePair& p : bridges) Prepare(p);
+  // Thread w scans its own range of pair ids.
+  std::vector<std::vector<std::pair<PairId, double>>> parts(
+      std::min<size_t>(options_.num_threads, std::max<size_t>(1, bridges.size())));
+  RunOnThreads(parts.size(), [&](size_t w, const Database& database,
+                                 CoverageGrid::Scratch* scratch) {
+    const size_t begin = w * bridges.size() / parts.size();
+    const size_t end = (w + 1) * bridges.size() / parts.size();
+    database.ForEachInlierMatches(
+        std::vector<ImagePair>(bridges.begin() + begin, bridges.begin() + end),
+        [&](const ImagePair& pair, const std::vector<FeatureMatch>& inliers) {
+          parts[w].push_back(
+              {ImagePairToPairId(pair.image_id1, pair.image_id2),
+               MeasureInliers(pair, inliers, scratch).score});
+        });
+  });
+  bulk_scores_.clear();
+  for (const auto& part : parts) {
+    bulk_scores_.insert(bulk_scores_.end(), part.begin(), part.end());
+  }
+  HISFM_LOG_DEBUG("builtin verifier: measured all {} bridges at once ({:.2f} s)",
+                  bridges.size(), timer.ElapsedSeconds());
+}
+
+void ContextDisambiguator::RunOnThreads(
+    size_t num_threads,
+    const std::function<void(size_t, const Database&, CoverageGrid::Scratch*)>&
+        fn) {
   while (workers_.size() + 1 < num_threads) {
     workers_.push_back(std::make_unique<Worker>(database_.path()));
   }
-  // Thread w measures pairs [begin(w), begin(w + 1)); thread 0 is this one.
-  auto begin = [&](size_t w) { return w * pairs.size() / num_threads; };
   std::vector<std::exception_ptr> errors(num_threads);
   std::vector<std::thread> threads;
   for (size_t w = 1; w < num_threads; ++w) {
     threads.emplace_back([&, w] {
       try {
-        Worker& worker = *workers_[w - 1];
-        for (size_t i = begin(w); i < begin(w + 1); ++i) {
-          scores[i] = Measure(worker.database, pairs[i], &worker.scratch).score;
-        }
+        fn(w, workers_[w - 1]->database, &workers_[w - 1]->scratch);
       } catch (...) {
         errors[w] = std::current_exception();
       }
     });
   }
   try {
-    for (size_t i = 0; i < begin(1); ++i) {
-      scores[i] = Measure(database_, pairs[i], &scratch_).score;
-    }
+    fn(0, database_, &scratch_);
   } catch (...) {
     errors[0] = std::current_exception();
   }
@@ -230,6 +258,64 @@ std::vector<double> ContextDisambiguator::Score(
   for (const std::exception_ptr& e : errors) {
     if (e) std::rethrow_exception(e);
   }
+}
+
+std::vector<double> ContextDisambiguator::Score(
+    const std::vector<ImagePair>& pairs) {
+  num_requested_ += pairs.size();
+  if (!bulk_done_ && options_.bulk_after_fraction > 0 &&
+      options_.bulk_after_fraction < 1 && num_requested_ >= static_cast<size_t>(options_.bulk_min_bridges)) {
+    if (num_bridges_ == 0) {
+      for (const ViewGraphEdge& e : graph_.Edges()) {
+        num_bridges_ += communities_.Of(e.pair.image_id1) !=
+                        communities_.Of(e.pair.image_id2);
+      }
+    }
+    if (num_requested_ > options_.bulk_after_fraction * num_bridges_) {
+      MeasureAllBridges();
+    }
+  }
+  std::vector<double> scores(pairs.size(), -1.0);
+  std::vector<ImagePair> todo;
+  std::vector<size_t> todo_index;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const PairId id =
+        ImagePairToPairId(pairs[i].image_id1, pairs[i].image_id2);
+    auto it = std::lower_bound(
+        bulk_scores_.begin(), bulk_scores_.end(), id,
+        [](const std::pair<PairId, double>& a, PairId b) {
+          return a.first < b;
+        });
+    if (it != bulk_scores_.end() && it->first == id) {
+      scores[i] = it->second;
+    } else {
+      todo.push_back(pairs[i]);
+      todo_index.push_back(i);
+    }
+  }
+  if (!todo.empty()) {
+    const std::vector<double> measured = MeasureLazily(todo);
+    for (size_t k = 0; k < todo.size(); ++k) {
+      scores[todo_index[k]] = measured[k];
+    }
+  }
+  return scores;
+}
+
+std::vector<double> ContextDisambiguator::MeasureLazily(
+    const std::vector<ImagePair>& pairs) {
+  for (const ImagePair& p : pairs) Prepare(p);
+  std::vector<double> scores(pairs.size());
+  const size_t num_threads = std::max<size_t>(
+      1, std::min<size_t>(options_.num_threads, pairs.size()));
+  // Thread w measures pairs [w n / T, (w + 1) n / T).
+  RunOnThreads(num_threads, [&](size_t w, const Database& database,
+                                CoverageGrid::Scratch* scratch) {
+    for (size_t i = w * pairs.size() / num_threads;
+         i < (w + 1) * pairs.size() / num_threads; ++i) {
+      scores[i] = Measure(database, pairs[i], scratch).score;
+    }
+  });
   return scores;
 }
 

@@ -427,6 +427,54 @@ TEST(ContextDisambiguator, ThreadedBatchesScoreLikeOneByOne) {
                Error);
 }
 
+// Past bulk_after_fraction of the bridges, every bridge is measured in one
+// scan; the scores are those of one-by-one measurement, and pairs that are
+// not bridges are still measured when asked for.
+TEST(ContextDisambiguator, BulkMeasurementsScoreLikeOneByOne) {
+  TempDir dir("hisfm-disamb");
+  street_test::Write(dir / "database.db", {16, true, 7});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const Communities comm = ComputeCommunities(graph, CommunityOptions());
+  std::vector<ImagePair> bridges, inside;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    (comm.Of(e.pair.image_id1) != comm.Of(e.pair.image_id2) ? bridges
+                                                             : inside)
+        .push_back(e.pair);
+  }
+  ASSERT_GE(bridges.size(), 20u);
+  ASSERT_GE(inside.size(), 1u);
+  DisambiguatorOptions serial_options;
+  serial_options.num_threads = 1;
+  serial_options.bulk_after_fraction = 0;
+  ContextDisambiguator serial(db, graph, comm, serial_options);
+  DisambiguatorOptions bulk_options;
+  bulk_options.num_threads = 1;
+  bulk_options.bulk_after_fraction = 0.1;
+  bulk_options.bulk_min_bridges = 1;
+  ContextDisambiguator bulk(db, graph, comm, bulk_options);
+  // The first call stays below the fraction, the second crosses it.
+  const size_t first = bridges.size() / 20;
+  std::vector<ImagePair> order(bridges.begin(), bridges.begin() + first);
+  std::vector<double> got = bulk.Score(order);
+  std::vector<ImagePair> rest(bridges.begin() + first, bridges.end());
+  rest.push_back(inside[0]);
+  const std::vector<double> more = bulk.Score(rest);
+  order.insert(order.end(), rest.begin(), rest.end());
+  got.insert(got.end(), more.begin(), more.end());
+  ASSERT_EQ(got.size(), order.size());
+  for (size_t k = 0; k < order.size(); ++k) {
+    EXPECT_DOUBLE_EQ(got[k], serial.Evaluate(order[k]).score)
+        << order[k].image_id1 << "-" << order[k].image_id2;
+  }
+  DisambiguatorOptions bad;
+  bad.bulk_after_fraction = 1.5;
+  EXPECT_THROW(bad.Check(), Error);
+  bad = DisambiguatorOptions();
+  bad.bulk_min_bridges = 0;
+  EXPECT_THROW(bad.Check(), Error);
+}
+
 TEST(ContextDisambiguator, CupKruskalRejectsDoppelgangers) {
   CheckRealScene("cup");
 }

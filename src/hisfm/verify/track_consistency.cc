@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "hisfm/graph/union_find.h"
 #include "hisfm/util/error.h"
@@ -51,34 +52,25 @@ TrackConsistency::TrackConsistency(const Database& database,
                        "in ", database.path()));
   }
   // A track is inconsistent if two of its keypoints belong to one image:
-  // sort the matched keypoints by (track, image) and look for neighbours.
-  struct Node {
-    size_t track;
-    ImageId image;
-    size_t index;
-  };
-  std::vector<Node> nodes;
+  // visiting the images one at a time, a track met twice during one image's
+  // visit is inconsistent. Two linear passes, no sort.
+  constexpr uint32_t kNotVisited = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> last_visit(total, kNotVisited);  // By root.
+  std::vector<char> inconsistent(total, 0);              // By root.
+  uint32_t ordinal = 0;
   for (const auto& [id, s] : images_) {
-    for (size_t k = 0; k < s.num_keypoints; ++k) {
-      if (state_[s.offset + k] != kUnmatched) {
-        nodes.push_back({tracks.Find(s.offset + k), id, s.offset + k});
-      }
+    for (size_t k = s.offset; k < s.offset + s.num_keypoints; ++k) {
+      if (state_[k] == kUnmatched) continue;
+      const size_t r = tracks.Find(k);
+      if (last_visit[r] == ordinal) inconsistent[r] = 1;
+      last_visit[r] = ordinal;
     }
+    ++ordinal;
   }
-  std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) {
-    return a.track < b.track || (a.track == b.track && a.image < b.image);
-  });
-  for (size_t begin = 0; begin < nodes.size();) {
-    size_t end = begin + 1;
-    bool inconsistent = false;
-    while (end < nodes.size() && nodes[end].track == nodes[begin].track) {
-      inconsistent |= nodes[end].image == nodes[end - 1].image;
-      ++end;
+  for (size_t k = 0; k < total; ++k) {
+    if (state_[k] != kUnmatched && inconsistent[tracks.Find(k)]) {
+      state_[k] = kRepeated;
     }
-    if (inconsistent) {
-      for (size_t k = begin; k < end; ++k) state_[nodes[k].index] = kRepeated;
-    }
-    begin = end;
   }
   for (auto& [id, s] : images_) {
     for (size_t k = 0; k < s.num_keypoints; ++k) {
