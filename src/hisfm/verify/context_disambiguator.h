@@ -100,13 +100,14 @@ struct DisambiguatorOptions {
   /// than one, the disambiguator asks the skeleton builder for batches of up
   /// to 256 (BridgeScorer::PreferredBatchSize); the builder sizes each
   /// batch by the run of rejections it is in, and verifies ahead the
-  /// bridges Kruskal would meet next. The decisions are the same; a few
-  /// more bridges may be verified (cup: 40 instead of 35). Measured on the
-  /// 5,000-image dense synthetic street (880k bridges verified, 2 cores):
-  /// the skeleton's verification took 4.1-5.1 s with 2 threads against
-  /// 7.2 s with 1. (With batches of at most 32 it was slower, not faster:
-  /// a batch then costs little more than starting its thread.)
-  int num_threads = 2;
+  /// bridges Kruskal would meet next. The decisions are the same, but more
+  /// bridges are verified (cup: 40 instead of 35; the 300-image dense
+  /// synthetic street: 12.1k instead of 9.8k). The bulk measurement below
+  /// uses the threads too, each scanning its own range of pairs. On 2
+  /// cores it gains nothing there (a scan already reads on a second
+  /// thread), and before the bulk measurement took over, 2 threads cut the
+  /// 5,000-image dense street's verification from 7.2 s to 4.1-5.1 s.
+  int num_threads = 1;
   /// Once Kruskal has asked for more bridges than this fraction of all the
   /// graph's bridges (and for at least bulk_min_bridges), every bridge is
   /// measured in one sequential read of their inliers, in pair-id order,
