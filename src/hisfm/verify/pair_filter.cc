@@ -122,6 +122,9 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
           if (!r.judged) continue;
           side_judged = true;
           side = std::max(side, r.fraction);
+          // A side that passes cannot fail with more third views, and the
+          // pair's value (its worse side) is recorded only when it fails.
+          if (side >= options.min_three_view_consistency) break;
         }
         if (side_judged) {
           judged = true;

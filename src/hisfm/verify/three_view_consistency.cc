@@ -170,9 +170,19 @@ ThreeViewResult MeasureThreeViewConsistency(
     }
   }
   const size_t max_points = static_cast<size_t>(options.max_shared_points);
-  const size_t stride =
-      max_points == 0 ? 1 : (candidates.size() + max_points - 1) / max_points;
-  for (size_t c = 0; c < candidates.size(); c += std::max<size_t>(stride, 1)) {
+  const size_t stride = std::max<size_t>(
+      1, max_points == 0 ? 1
+                         : (candidates.size() + max_points - 1) / max_points);
+  // Scale points are distinctive candidates: too few, and the test is
+  // silent whatever the triangulation (common where dense matching has
+  // joined most tracks into inconsistent ones).
+  const TrackConsistency::ImageKeypoints x_keypoints = tracks.KeypointsOf(x);
+  int num_distinctive = 0;
+  for (size_t c = 0; c < candidates.size(); c += stride) {
+    num_distinctive += x_keypoints.IsDistinctive(candidates[c]);
+  }
+  if (num_distinctive < options.min_scale_points) return result;
+  for (size_t c = 0; c < candidates.size(); c += stride) {
     const uint32_t kx = candidates[c];
     const int32_t kt = x_to_t[kx];
     const int32_t ky = x_to_y[kx];
@@ -189,7 +199,7 @@ ThreeViewResult MeasureThreeViewConsistency(
       if (too_small) continue;
     }
     shared.push_back({{nx[kx], nt[kt], ny[ky]}});
-    if (!tracks.IsDistinctive(x, static_cast<uint32_t>(kx))) continue;
+    if (!x_keypoints.IsDistinctive(kx)) continue;
     // Scale s of y's baseline that puts X on y's ray: u x (R X + s t) = 0.
     const Eigen::Vector3d u = ny[ky].homogeneous();
     const Eigen::Vector3d a = u.cross(R_yx * X);

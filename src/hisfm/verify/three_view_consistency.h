@@ -64,7 +64,8 @@ struct ThreeViewOptions {
 
 /// Outcome of one three-view test.
 struct ThreeViewResult {
-  /// Shared keypoints of x (inliers of both pairs) that were triangulated.
+  /// Shared keypoints of x (inliers of both pairs) that were triangulated
+  /// (0 when too few distinctive ones left nothing to triangulate for).
   int num_shared = 0;
   /// Distinctive ones among them, which fixed the scale.
   int num_scale_points = 0;

@@ -91,6 +91,17 @@ uint8_t TrackConsistency::State(ImageId image_id, uint32_t idx) const {
   return state_[it->second.offset + idx];
 }
 
+TrackConsistency::ImageKeypoints TrackConsistency::KeypointsOf(
+    ImageId image_id) const {
+  ImageKeypoints out;
+  auto it = images_.find(image_id);
+  if (it != images_.end()) {
+    out.states_ = state_.data() + it->second.offset;
+    out.num_keypoints_ = it->second.num_keypoints;
+  }
+  return out;
+}
+
 bool TrackConsistency::IsMatched(ImageId image_id, uint32_t idx) const {
   return State(image_id, idx) != kUnmatched;
 }

@@ -62,6 +62,8 @@ struct DistinctiveSupport {
 
 /// Track consistency of the keypoints of every image in a view graph.
 class TrackConsistency {
+  enum : uint8_t { kUnmatched = 0, kDistinctive = 1, kRepeated = 2 };
+
  public:
   TrackConsistency() = default;
   /// Joins the inlier matches of every edge of `graph` (read from
@@ -74,6 +76,23 @@ class TrackConsistency {
   bool IsMatched(ImageId image_id, uint32_t idx) const;
   /// True if the keypoint is matched and its track is consistent.
   bool IsDistinctive(ImageId image_id, uint32_t idx) const;
+
+  /// The keypoints of one image, for loops over many of them (one image
+  /// lookup instead of one per keypoint).
+  class ImageKeypoints {
+   public:
+    /// Same as TrackConsistency::IsDistinctive for this image.
+    bool IsDistinctive(uint32_t idx) const {
+      return idx < num_keypoints_ && states_[idx] == kDistinctive;
+    }
+
+   private:
+    friend class TrackConsistency;
+    const uint8_t* states_ = nullptr;
+    size_t num_keypoints_ = 0;
+  };
+  /// The keypoints of `image_id` (none if the image is unknown).
+  ImageKeypoints KeypointsOf(ImageId image_id) const;
 
   /// Fraction of an image's matched keypoints that are distinctive (0 for an
   /// image without matched keypoints or unknown to the graph).
@@ -93,7 +112,6 @@ class TrackConsistency {
                              const std::vector<FeatureMatch>& inliers) const;
 
  private:
-  enum : uint8_t { kUnmatched = 0, kDistinctive = 1, kRepeated = 2 };
   struct ImageState {
     size_t offset = 0;
     size_t num_keypoints = 0;
