@@ -10,6 +10,7 @@
 //
 //   build/bench/scaling [--sizes 100,300,1000,3000,5000]
 //                       [--mapper_max_images 1000] [--budget_seconds 2400]
+//                       [--graph_runs 2]
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -20,6 +21,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -118,6 +120,7 @@ int main(int argc, char** argv) {
   std::string work_path = "/tmp/hisfm-scaling";
   std::string hisfm = fs::path(argv[0]).parent_path().parent_path() / "hisfm";
   int mapper_max_images = 1000;
+  int graph_runs = 2;
   double budget = 2400;
   int street_block_houses = 80;
   int mapper_street_block_houses = SynthOptions().street_block_houses;
@@ -137,6 +140,10 @@ int main(int argc, char** argv) {
   app.add_option("--mapper_max_images", mapper_max_images,
                  "Run the mapper stage (hisfm and colmap) up to this size")
       ->capture_default_str();
+  app.add_option("--graph_runs", graph_runs,
+                 "Runs of the graph stage per size; the fastest is reported")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--budget_seconds", budget,
                  "Time budget of each mapper run (killed after it)")
       ->capture_default_str();
@@ -168,22 +175,36 @@ int main(int argc, char** argv) {
       const SynthDatasetSummary synth = WriteSyntheticDataset(options, dir);
       const std::string db = dir + "/database.db";
 
-      std::cerr << "== n = " << n << ": graph stage\n";
-      const ProcessResult graph = RunMeasured(
-          {hisfm, "view_graph", "--database_path", db, "--output_path",
-           dir + "/view_graph.json", "--log_level", "warn"},
-          dir + "/view_graph.log", 3600);
-      ThrowUnless(graph.finished && graph.exit_code == 0,
-                  StrCat("hisfm view_graph failed, see ", dir,
-                         "/view_graph.log"));
-      const nlohmann::json vg =
-          nlohmann::json::parse(ReadTextFile(dir + "/view_graph.json"));
-      const double read_seconds = vg["timings"]["read_database"].get<double>();
-      const double filter_seconds = vg["timings"]["filter_pairs"].get<double>();
-      const double hierarchy_seconds =
-          vg["timings"]["build_hierarchy"].get<double>();
-      const double graph_seconds =
-          read_seconds + filter_seconds + hierarchy_seconds;
+      // The fastest of graph_runs runs (the first one after writing the
+      // database competes with its write-back), with its own split.
+      ProcessResult graph;
+      nlohmann::json vg;
+      double read_seconds = 0, filter_seconds = 0, hierarchy_seconds = 0;
+      double graph_seconds = std::numeric_limits<double>::infinity();
+      for (int run = 0; run < graph_runs; ++run) {
+        std::cerr << "== n = " << n << ": graph stage, run " << run + 1
+                  << "\n";
+        const ProcessResult r = RunMeasured(
+            {hisfm, "view_graph", "--database_path", db, "--output_path",
+             dir + "/view_graph.json", "--log_level", "warn"},
+            dir + "/view_graph.log", 3600);
+        ThrowUnless(r.finished && r.exit_code == 0,
+                    StrCat("hisfm view_graph failed, see ", dir,
+                           "/view_graph.log"));
+        nlohmann::json j =
+            nlohmann::json::parse(ReadTextFile(dir + "/view_graph.json"));
+        const double read = j["timings"]["read_database"].get<double>();
+        const double filter = j["timings"]["filter_pairs"].get<double>();
+        const double hierarchy = j["timings"]["build_hierarchy"].get<double>();
+        if (read + filter + hierarchy < graph_seconds) {
+          graph = r;
+          vg = std::move(j);
+          read_seconds = read;
+          filter_seconds = filter;
+          hierarchy_seconds = hierarchy;
+          graph_seconds = read + filter + hierarchy;
+        }
+      }
       const std::string verified_cell = StrCat(
           vg["num_verified_bridges"].get<size_t>(), " (",
           FormatFixed(100.0 * vg["num_verified_bridges"].get<double>() /

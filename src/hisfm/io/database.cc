@@ -39,17 +39,32 @@ Eigen::Matrix3d ReadMatrix3Blob(sqlite3_stmt* stmt, int col) {
   return m;
 }
 
-std::vector<FeatureMatch> ReadMatchesBlob(sqlite3_stmt* stmt, int rows_col,
-                                          int data_col) {
+// A row's match blob (rows x 2 uint32: keypoint indices in the pair's two
+// images), checked against its row count, without copying.
+struct MatchesView {
+  const FeatureMatch* data = nullptr;
+  size_t size = 0;
+};
+
+MatchesView MatchesOf(sqlite3_stmt* stmt, int rows_col, int data_col) {
+  static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
+                "FeatureMatch must be two packed uint32");
   const int rows = sqlite3_column_int(stmt, rows_col);
-  const std::vector<uint32_t> v = ReadBlob<uint32_t>(stmt, data_col);
+  const void* data = sqlite3_column_blob(stmt, data_col);
+  const int bytes = sqlite3_column_bytes(stmt, data_col);
   // (Checks on hot paths build their message only when they fail.)
-  if (v.size() != static_cast<size_t>(rows) * 2) {
+  if (rows < 0 || (rows > 0 && !data) ||
+      static_cast<size_t>(bytes) !=
+          static_cast<size_t>(rows) * sizeof(FeatureMatch)) {
     throw Error("database error: corrupt match blob");
   }
-  std::vector<FeatureMatch> out(rows);
-  for (int i = 0; i < rows; ++i) out[i] = {v[2 * i], v[2 * i + 1]};
-  return out;
+  return {static_cast<const FeatureMatch*>(data), static_cast<size_t>(rows)};
+}
+
+std::vector<FeatureMatch> ReadMatchesBlob(sqlite3_stmt* stmt, int rows_col,
+                                          int data_col) {
+  const MatchesView v = MatchesOf(stmt, rows_col, data_col);
+  return std::vector<FeatureMatch>(v.data, v.data + v.size);
 }
 
 }  // namespace
@@ -327,18 +342,8 @@ void ScanInlierMatches(sqlite3* db, const std::vector<PairId>& ids,
         continue;
       }
       skipped = 0;
-      const int rows = sqlite3_column_int(stmt.get(), 1);
-      const void* data = sqlite3_column_blob(stmt.get(), 2);
-      const int bytes = sqlite3_column_bytes(stmt.get(), 2);
-      if (rows < 0 || (rows > 0 && !data) ||
-          static_cast<size_t>(bytes) !=
-              static_cast<size_t>(rows) * 2 * sizeof(uint32_t)) {
-        throw Error("database error: corrupt match blob");
-      }
-      static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
-                    "FeatureMatch must be two packed uint32");
-      emit(id, static_cast<const FeatureMatch*>(data),
-           static_cast<size_t>(rows));
+      const MatchesView matches = MatchesOf(stmt.get(), 1, 2);
+      emit(id, matches.data, matches.size);
       if (++next == n) {
         table_ended = false;
         break;
