@@ -225,6 +225,19 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
                          RejectFn&& reject) {
   UnionFind all(m);
   for (const Bridge& b : bridges) all.Union(b.c1, b.c2);
+  // Bridges that may still be taken: not rejected yet (a rejected one would
+  // only be skipped again), in weight order; and the used community pairs,
+  // ascending.
+  std::vector<size_t> open;
+  for (size_t k = 0; k < bridges.size(); ++k) {
+    if (!cache->Has(k) || cache->Get(k) >= options.verify_threshold) {
+      open.push_back(k);
+    }
+  }
+  std::vector<uint32_t> used_kappas;
+  for (size_t kappa = 0; kappa < kappas.size(); ++kappa) {
+    if ((*used)[kappa]) used_kappas.push_back(static_cast<uint32_t>(kappa));
+  }
   std::map<size_t, std::vector<CommunityId>> components;
   for (CommunityId c = 0; c < m; ++c) components[all.Find(c)].push_back(c);
   std::vector<size_t> local(m, 0);
@@ -238,8 +251,8 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
     std::vector<char> dead(bridges.size(), 0);  // Rejected while repairing.
     for (size_t iteration = 0; iteration < K * members.size(); ++iteration) {
       std::vector<std::pair<size_t, size_t>> edges;
-      for (size_t kappa = 0; kappa < kappas.size(); ++kappa) {
-        if ((*used)[kappa] && in_component(kappas[kappa].first)) {
+      for (const uint32_t kappa : used_kappas) {
+        if (in_component(kappas[kappa].first)) {
           edges.push_back(
               {local[kappas[kappa].first], local[kappas[kappa].second]});
         }
@@ -249,7 +262,7 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
       std::vector<bool> in_side(members.size(), false);
       for (size_t v : cut.side) in_side[v] = true;
       bool added = false;
-      for (size_t k = 0; k < bridges.size(); ++k) {
+      for (const size_t k : open) {
         const Bridge& b = bridges[k];
         if (!in_component(b.c1)) continue;
         if (in_side[local[b.c1]] == in_side[local[b.c2]] ||
@@ -263,6 +276,10 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
           continue;
         }
         (*used)[b.kappa] = 1;
+        // (Kept in ascending order: the cut's input does not change.)
+        used_kappas.insert(std::lower_bound(used_kappas.begin(),
+                                            used_kappas.end(), b.kappa),
+                           b.kappa);
         (*in_skeleton)[k] = 1;
         skeleton->bridges.push_back(
             MakeRecord(b, score, true, BridgeRole::kConnectivity, -1));
