@@ -387,12 +387,17 @@ TEST(ContextDisambiguator, DistinctiveCueRejectsStreetDoppelgangers) {
   EXPECT_GE(num_pure_passing_coverage, 1);
 }
 
+// The repeated test street (16 photos, seed 7) with its top-1 communities.
+struct Street : street_test::Opened {
+  Street() : Opened(7) {}
+  Communities communities = ComputeCommunities(graph, CommunityOptions());
+};
+
 TEST(ContextDisambiguator, ThreadedBatchesScoreLikeOneByOne) {
-  TempDir dir("hisfm-disamb");
-  street_test::Write(dir / "database.db", {16, true, 7});
-  Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
-  const Communities comm = ComputeCommunities(graph, CommunityOptions());
+  Street street;
+  Database& db = street.db;
+  const ViewGraph& graph = street.graph;
+  const Communities& comm = street.communities;
   std::vector<ImagePair> pairs;
   for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
   ASSERT_GE(pairs.size(), 20u);
@@ -431,11 +436,10 @@ TEST(ContextDisambiguator, ThreadedBatchesScoreLikeOneByOne) {
 // scan; the scores are those of one-by-one measurement, and pairs that are
 // not bridges are still measured when asked for.
 TEST(ContextDisambiguator, BulkMeasurementsScoreLikeOneByOne) {
-  TempDir dir("hisfm-disamb");
-  street_test::Write(dir / "database.db", {16, true, 7});
-  Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
-  const Communities comm = ComputeCommunities(graph, CommunityOptions());
+  Street street;
+  Database& db = street.db;
+  const ViewGraph& graph = street.graph;
+  const Communities& comm = street.communities;
   std::vector<ImagePair> bridges, inside;
   for (const ViewGraphEdge& e : graph.Edges()) {
     (comm.Of(e.pair.image_id1) != comm.Of(e.pair.image_id2) ? bridges

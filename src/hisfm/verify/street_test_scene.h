@@ -23,7 +23,10 @@
 #include <string>
 #include <vector>
 
+#include "hisfm/graph/view_graph.h"
+#include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
+#include "hisfm/util/test_util.h"
 
 namespace hisfm {
 namespace street_test {
@@ -222,6 +225,17 @@ inline Scene Write(const std::string& path, const Options& options) {
   writer.Close();
   return scene;
 }
+
+/// The repeated street of `num_images` photos written to a temporary folder
+/// and opened, with its view graph (pairs of at least 15 inliers).
+struct Opened {
+  explicit Opened(uint32_t seed, int num_images = 16)
+      : scene(Write(dir / "database.db", {num_images, true, seed})) {}
+  TempDir dir{"hisfm-street"};
+  Scene scene;
+  Database db{dir / "database.db"};
+  ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+};
 
 }  // namespace street_test
 }  // namespace hisfm

@@ -25,16 +25,21 @@ TEST(ThreeViewOptions, CheckRejectsBadValues) {
   EXPECT_THROW(o.Check(), Error);
 }
 
+// The repeated test street (16 photos, seed 5), its tracks and geometry.
+struct Street : street_test::Opened {
+  Street() : Opened(5) {}
+  TrackConsistency tracks{db, graph};
+  PairGeometryCache cache{db};
+};
+
 // The street's pairs as seen from their first image, through its
 // neighbour one photo away (a true pair).
 TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
-  TempDir dir("hisfm-threeview");
-  const street_test::Scene scene =
-      street_test::Write(dir / "database.db", {16, true, 5});
-  Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
-  const TrackConsistency tracks(db, graph);
-  PairGeometryCache cache(db);
+  Street street;
+  const street_test::Scene& scene = street.scene;
+  const ViewGraph& graph = street.graph;
+  const TrackConsistency& tracks = street.tracks;
+  PairGeometryCache& cache = street.cache;
   const ThreeViewOptions options;
 
   int num_true = 0, num_mixed = 0;
@@ -73,13 +78,11 @@ TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
 // An evenly spaced subset of the shared keypoints gives the verdict of all
 // of them, at a fraction of the triangulations.
 TEST(ThreeViewConsistency, SubsampledSharedPointsKeepTheVerdict) {
-  TempDir dir("hisfm-threeview");
-  const street_test::Scene scene =
-      street_test::Write(dir / "database.db", {16, true, 5});
-  Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
-  const TrackConsistency tracks(db, graph);
-  PairGeometryCache cache(db);
+  Street street;
+  const street_test::Scene& scene = street.scene;
+  const ViewGraph& graph = street.graph;
+  const TrackConsistency& tracks = street.tracks;
+  PairGeometryCache& cache = street.cache;
   ThreeViewOptions all;
   all.max_shared_points = 0;
   ThreeViewOptions sampled;
