@@ -40,11 +40,21 @@ Eigen::Matrix3d ReadMatrix3Blob(sqlite3_stmt* stmt, int col) {
 }
 
 // A row's match blob (rows x 2 uint32: keypoint indices in the pair's two
-// images), checked against its row count, without copying.
+// images), checked against its row count, not copied. SQLite does not align
+// blobs: they are read with memcpy only.
 struct MatchesView {
-  const FeatureMatch* data = nullptr;
+  const void* data = nullptr;
   size_t size = 0;
 };
+
+// Appends the matches of `v` to `out`.
+void AppendMatches(const MatchesView& v, std::vector<FeatureMatch>* out) {
+  const size_t old_size = out->size();
+  out->resize(old_size + v.size);
+  if (v.size > 0) {
+    std::memcpy(out->data() + old_size, v.data, v.size * sizeof(FeatureMatch));
+  }
+}
 
 MatchesView MatchesOf(sqlite3_stmt* stmt, int rows_col, int data_col) {
   static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
@@ -58,13 +68,14 @@ MatchesView MatchesOf(sqlite3_stmt* stmt, int rows_col, int data_col) {
           static_cast<size_t>(rows) * sizeof(FeatureMatch)) {
     throw Error("database error: corrupt match blob");
   }
-  return {static_cast<const FeatureMatch*>(data), static_cast<size_t>(rows)};
+  return {data, static_cast<size_t>(rows)};
 }
 
 std::vector<FeatureMatch> ReadMatchesBlob(sqlite3_stmt* stmt, int rows_col,
                                           int data_col) {
-  const MatchesView v = MatchesOf(stmt, rows_col, data_col);
-  return std::vector<FeatureMatch>(v.data, v.data + v.size);
+  std::vector<FeatureMatch> out;
+  AppendMatches(MatchesOf(stmt, rows_col, data_col), &out);
+  return out;
 }
 
 }  // namespace
@@ -306,7 +317,7 @@ std::vector<FeatureMatch> Database::ReadInlierMatches(ImageId a,
 namespace {
 
 // Scans the inlier matches of the sorted, unique pair ids `ids` through `db`
-// and calls `emit(pair_id, matches, num_matches)` for each present one, in
+// and calls `emit(pair_id, matches)` (a MatchesView) for each present one, in
 // order. One forward scan from the first wanted pair: rows between wanted
 // ones are stepped over without reading their matches, and the scan seeks
 // afresh (one b-tree descent) when it would step over more than a few rows
@@ -342,8 +353,7 @@ void ScanInlierMatches(sqlite3* db, const std::vector<PairId>& ids,
         continue;
       }
       skipped = 0;
-      const MatchesView matches = MatchesOf(stmt.get(), 1, 2);
-      emit(id, matches.data, matches.size);
+      emit(id, MatchesOf(stmt.get(), 1, 2));
       if (++next == n) {
         table_ended = false;
         break;
@@ -379,8 +389,9 @@ void Database::ForEachInlierMatches(
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
   std::vector<FeatureMatch> matches;
-  auto call = [&](PairId id, const FeatureMatch* data, size_t rows) {
-    matches.assign(data, data + rows);
+  auto call = [&](PairId id, const MatchesView& v) {
+    matches.clear();
+    AppendMatches(v, &matches);
     fn(PairIdToImagePair(id), matches);
   };
 
@@ -407,7 +418,7 @@ void Database::ForEachInlierMatches(
   std::deque<MatchChunk> queue;
   bool done = false, stop = false;
   std::exception_ptr error;
-  std::thread producer([&] {
+  auto produce = [&] {
     MatchChunk chunk;
     auto push = [&] {
       std::unique_lock<std::mutex> lock(mutex);
@@ -420,14 +431,12 @@ void Database::ForEachInlierMatches(
     };
     try {
       sqlite3_exec(reader, "BEGIN;", nullptr, nullptr, nullptr);
-      ScanInlierMatches(reader, ids,
-                        [&](PairId id, const FeatureMatch* data, size_t rows) {
-                          chunk.ids.push_back(id);
-                          chunk.matches.insert(chunk.matches.end(), data,
-                                               data + rows);
-                          chunk.offsets.push_back(chunk.matches.size());
-                          if (chunk.ids.size() == kChunkPairs) push();
-                        });
+      ScanInlierMatches(reader, ids, [&](PairId id, const MatchesView& v) {
+        chunk.ids.push_back(id);
+        AppendMatches(v, &chunk.matches);
+        chunk.offsets.push_back(chunk.matches.size());
+        if (chunk.ids.size() == kChunkPairs) push();
+      });
       if (!chunk.ids.empty()) push();
     } catch (...) {
       std::lock_guard<std::mutex> lock(mutex);
@@ -437,7 +446,14 @@ void Database::ForEachInlierMatches(
     std::lock_guard<std::mutex> lock(mutex);
     done = true;
     changed.notify_all();
-  });
+  };
+  std::thread producer;
+  try {
+    producer = std::thread(produce);
+  } catch (...) {
+    sqlite3_close(reader);
+    throw;
+  }
   auto finish = [&] {
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -459,8 +475,8 @@ void Database::ForEachInlierMatches(
         changed.notify_all();
       }
       for (size_t k = 0; k < chunk.ids.size(); ++k) {
-        call(chunk.ids[k], chunk.matches.data() + chunk.offsets[k],
-             chunk.offsets[k + 1] - chunk.offsets[k]);
+        call(chunk.ids[k], {chunk.matches.data() + chunk.offsets[k],
+                            chunk.offsets[k + 1] - chunk.offsets[k]});
       }
     }
   } catch (...) {

@@ -125,8 +125,12 @@ class Database {
   std::vector<FeatureMatch> ReadInlierMatches(ImageId a, ImageId b) const;
   /// Reads the inlier matches of many pairs in ascending pair-id order
   /// (sequential page access, one prepared statement, one read transaction)
-  /// and calls `fn(pair, matches)` for each, the pair oriented as stored;
-  /// pairs absent from the database are skipped, duplicates read once.
+  /// and calls `fn(pair, matches)` for each, on the calling thread, the pair
+  /// oriented as stored; pairs absent from the database are skipped,
+  /// duplicates read once. From 4,096 pairs on, a second read-only
+  /// connection (its own snapshot, outside any ReadScope of this one) reads
+  /// ahead on its own thread while `fn` runs. An exception thrown by `fn`
+  /// or by the reading stops both and reaches the caller.
   void ForEachInlierMatches(
       std::vector<ImagePair> pairs,
       const std::function<void(const ImagePair&,

@@ -206,6 +206,16 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
                    }),
                Error);
   EXPECT_EQ(num_calls, 3000u);
+  // At the first pair, while the reader is still filling its queue.
+  num_calls = 0;
+  EXPECT_THROW(db.ForEachInlierMatches(
+                   requested,
+                   [&](const ImagePair&, const std::vector<FeatureMatch>&) {
+                     ++num_calls;
+                     throw Error("stop at once");
+                   }),
+               Error);
+  EXPECT_EQ(num_calls, 1u);
   EXPECT_EQ(db.ReadInlierMatches(3, 6).size(), 15u + 18 % 7);
 }
 

@@ -210,7 +210,8 @@ void ContextDisambiguator::MeasureAllBridges() {
   for (const ImagePair& p : bridges) Prepare(p);
   // Thread w scans its own range of pair ids.
   std::vector<std::vector<std::pair<PairId, double>>> parts(
-      std::min<size_t>(options_.num_threads, std::max<size_t>(1, bridges.size())));
+      std::min<size_t>(options_.num_threads,
+                       std::max<size_t>(1, bridges.size())));
   RunOnThreads(parts.size(), [&](size_t w, const Database& database,
                                  CoverageGrid::Scratch* scratch) {
     const size_t begin = w * bridges.size() / parts.size();
@@ -227,7 +228,12 @@ void ContextDisambiguator::MeasureAllBridges() {
   for (const auto& part : parts) {
     bulk_scores_.insert(bulk_scores_.end(), part.begin(), part.end());
   }
-  HISFM_LOG_DEBUG("builtin verifier: measured all {} bridges at once ({:.2f} s)",
+  // (In order already: the graph's edges are sorted by pair.)
+  if (!std::is_sorted(bulk_scores_.begin(), bulk_scores_.end())) {
+    std::sort(bulk_scores_.begin(), bulk_scores_.end());
+  }
+  HISFM_LOG_DEBUG("builtin verifier: measured all {} bridges at once "
+                  "({:.2f} s)",
                   bridges.size(), timer.ElapsedSeconds());
 }
 
@@ -264,7 +270,8 @@ std::vector<double> ContextDisambiguator::Score(
     const std::vector<ImagePair>& pairs) {
   num_requested_ += pairs.size();
   if (!bulk_done_ && options_.bulk_after_fraction > 0 &&
-      options_.bulk_after_fraction < 1 && num_requested_ >= static_cast<size_t>(options_.bulk_min_bridges)) {
+      options_.bulk_after_fraction < 1 &&
+      num_requested_ >= static_cast<size_t>(options_.bulk_min_bridges)) {
     if (num_bridges_ == 0) {
       for (const ViewGraphEdge& e : graph_.Edges()) {
         num_bridges_ += communities_.Of(e.pair.image_id1) !=

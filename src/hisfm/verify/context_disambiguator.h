@@ -96,7 +96,8 @@ struct DisambiguatorOptions {
   /// DistinctiveSupport::p_value); otherwise it is silent (score 1).
   double distinctive_significance = 0.01;
   /// Threads measuring a batch of bridges (each reads the database through
-  /// its own connection); 1 = score strictly one bridge at a time. With more
+  /// its own connection); 1 = score one bridge at a time (until the bulk
+  /// measurement below takes over). With more
   /// than one, the disambiguator asks the skeleton builder for batches of up
   /// to 256 (BridgeScorer::PreferredBatchSize); the builder sizes each
   /// batch by the run of rejections it is in, and verifies ahead the
@@ -114,11 +115,11 @@ struct DisambiguatorOptions {
   /// and later requests are answered from those measurements. The scores
   /// are the same, and so are the decisions and the count of verified
   /// bridges (what Kruskal asked for); only the reading changes, from one
-  /// b-tree lookup per bridge to one scan (on that street: 2.0 s for all
-  /// 948k bridges, against about 4 s for the 894k asked for one by one). Scenes whose heavy bridges are
-  /// mostly doppelgangers make Kruskal ask for most bridges (86% on the
-  /// densely matched 5,000-image synthetic street). 0 disables; 1 never
-  /// triggers.
+  /// b-tree lookup per bridge to one scan. Scenes whose heavy bridges are
+  /// mostly doppelgangers make Kruskal ask for most bridges: 86% on the
+  /// densely matched 5,000-image synthetic street, where the scan measures
+  /// all 948k bridges in 2.0 s against about 4 s for the 894k asked for one
+  /// by one. 0 disables; 1 never triggers.
   double bulk_after_fraction = 0.05;
   /// See bulk_after_fraction: small scenes stay lazy.
   int bulk_min_bridges = 4096;
@@ -193,6 +194,9 @@ class ContextDisambiguator : public BridgeScorer {
   /// Reference cell count of an image (cached).
   double ReferenceCells(ImageId image_id);
 
+  /// Bridges measured by the bulk scan (0 until it ran).
+  size_t NumBulkMeasured() const { return bulk_scores_.size(); }
+
  private:
   struct ImageCache {
     bool has_reference = false;
@@ -244,8 +248,8 @@ class ContextDisambiguator : public BridgeScorer {
   CoverageGrid::Scratch scratch_;
   // Threads beyond the caller's, created at the first parallel batch.
   std::vector<std::unique_ptr<Worker>> workers_;
-  // Bridges asked for through Score, and the bulk measurements, sorted by
-  // pair id.
+  // Pairs asked for through Score (bridges or not), and the bulk
+  // measurements, sorted by pair id.
   size_t num_requested_ = 0;
   size_t num_bridges_ = 0;  // Counted when first needed.
   bool bulk_done_ = false;

@@ -452,24 +452,34 @@ TEST(ContextDisambiguator, BulkMeasurementsScoreLikeOneByOne) {
   serial_options.num_threads = 1;
   serial_options.bulk_after_fraction = 0;
   ContextDisambiguator serial(db, graph, comm, serial_options);
-  DisambiguatorOptions bulk_options;
-  bulk_options.num_threads = 1;
-  bulk_options.bulk_after_fraction = 0.1;
-  bulk_options.bulk_min_bridges = 1;
-  ContextDisambiguator bulk(db, graph, comm, bulk_options);
-  // The first call stays below the fraction, the second crosses it.
-  const size_t first = bridges.size() / 20;
-  std::vector<ImagePair> order(bridges.begin(), bridges.begin() + first);
-  std::vector<double> got = bulk.Score(order);
-  std::vector<ImagePair> rest(bridges.begin() + first, bridges.end());
-  rest.push_back(inside[0]);
-  const std::vector<double> more = bulk.Score(rest);
-  order.insert(order.end(), rest.begin(), rest.end());
-  got.insert(got.end(), more.begin(), more.end());
-  ASSERT_EQ(got.size(), order.size());
-  for (size_t k = 0; k < order.size(); ++k) {
-    EXPECT_DOUBLE_EQ(got[k], serial.Evaluate(order[k]).score)
-        << order[k].image_id1 << "-" << order[k].image_id2;
+  std::vector<double> expected;
+  for (const ImagePair& p : bridges) {
+    expected.push_back(serial.Evaluate(p).score);
+  }
+  const double inside_score = serial.Evaluate(inside[0]).score;
+  // One thread, and two scanning a range of pair ids each.
+  for (const int threads : {1, 2}) {
+    DisambiguatorOptions bulk_options;
+    bulk_options.num_threads = threads;
+    bulk_options.bulk_after_fraction = 0.1;
+    bulk_options.bulk_min_bridges = 1;
+    ContextDisambiguator bulk(db, graph, comm, bulk_options);
+    // The first call stays below the fraction, the second crosses it.
+    const size_t first = bridges.size() / 20;
+    std::vector<double> got = bulk.Score(
+        std::vector<ImagePair>(bridges.begin(), bridges.begin() + first));
+    EXPECT_EQ(bulk.NumBulkMeasured(), 0u);
+    std::vector<ImagePair> rest(bridges.begin() + first, bridges.end());
+    rest.push_back(inside[0]);
+    const std::vector<double> more = bulk.Score(rest);
+    EXPECT_EQ(bulk.NumBulkMeasured(), bridges.size());
+    got.insert(got.end(), more.begin(), more.end() - 1);
+    ASSERT_EQ(got.size(), expected.size());
+    for (size_t k = 0; k < got.size(); ++k) {
+      EXPECT_DOUBLE_EQ(got[k], expected[k])
+          << bridges[k].image_id1 << "-" << bridges[k].image_id2;
+    }
+    EXPECT_DOUBLE_EQ(more.back(), inside_score);
   }
   DisambiguatorOptions bad;
   bad.bulk_after_fraction = 1.5;

@@ -160,7 +160,7 @@ ThreeViewResult MeasureThreeViewConsistency(
   };
   std::vector<Shared> shared;
   std::vector<double> scales;
-  // Keypoints of x matched in both pairs, subsampled evenly.
+  // Keypoints of x matched in both pairs.
   std::vector<uint32_t> candidates;
   const size_t num_x = std::min(x_to_t.size(), x_to_y.size());
   for (size_t kx = 0; kx < num_x; ++kx) {
@@ -169,21 +169,28 @@ ThreeViewResult MeasureThreeViewConsistency(
       candidates.push_back(static_cast<uint32_t>(kx));
     }
   }
-  const size_t max_points = static_cast<size_t>(options.max_shared_points);
-  const size_t stride = std::max<size_t>(
-      1, max_points == 0 ? 1
-                         : (candidates.size() + max_points - 1) / max_points);
   // Scale points are distinctive candidates: too few, and the test is
   // silent whatever the triangulation (common where dense matching has
   // joined most tracks into inconsistent ones).
   const TrackConsistency::ImageKeypoints x_keypoints = tracks.KeypointsOf(x);
   int num_distinctive = 0;
-  for (size_t c = 0; c < candidates.size(); c += stride) {
-    num_distinctive += x_keypoints.IsDistinctive(candidates[c]);
+  for (const uint32_t kx : candidates) {
+    num_distinctive += x_keypoints.IsDistinctive(kx);
   }
   if (num_distinctive < options.min_scale_points) return result;
-  for (size_t c = 0; c < candidates.size(); c += stride) {
+  // Every distinctive candidate fixes the scale; the consistency is counted
+  // on max_shared_points evenly spaced candidates (candidate c is one if
+  // floor(c m / n) steps up at c).
+  const size_t n = candidates.size();
+  const size_t m = options.max_shared_points > 0
+                       ? std::min(n, static_cast<size_t>(
+                                         options.max_shared_points))
+                       : n;
+  for (size_t c = 0; c < n; ++c) {
     const uint32_t kx = candidates[c];
+    const bool counted = (c + 1) * m / n > c * m / n;
+    const bool distinctive = x_keypoints.IsDistinctive(kx);
+    if (!counted && !distinctive) continue;
     const int32_t kt = x_to_t[kx];
     const int32_t ky = x_to_y[kx];
     const Eigen::Vector2d uxt[2] = {nx[kx], nt[kt]};
@@ -198,8 +205,8 @@ ThreeViewResult MeasureThreeViewConsistency(
                  : std::clamp(X.dot(r2) / n, -1.0, 1.0) > cos_min_angle;
       if (too_small) continue;
     }
-    shared.push_back({{nx[kx], nt[kt], ny[ky]}});
-    if (!x_keypoints.IsDistinctive(kx)) continue;
+    if (counted) shared.push_back({{nx[kx], nt[kt], ny[ky]}});
+    if (!distinctive) continue;
     // Scale s of y's baseline that puts X on y's ray: u x (R X + s t) = 0.
     const Eigen::Vector3d u = ny[ky].homogeneous();
     const Eigen::Vector3d a = u.cross(R_yx * X);

@@ -52,10 +52,11 @@ struct ThreeViewOptions {
   /// The test is silent with fewer distinctive shared keypoints fixing the
   /// scale.
   int min_scale_points = 5;
-  /// At most this many shared keypoints are triangulated: when there are
-  /// more, an evenly spaced subset (every k-th by keypoint index) is used.
-  /// The consistent fraction of 100 points has a standard error of at most
-  /// 5 points, against a decision threshold of 50%; 0 uses all of them.
+  /// The consistent fraction is counted on at most this many shared
+  /// keypoints, evenly spaced by keypoint index; every distinctive shared
+  /// keypoint still fixes the scale, so whether the test judges does not
+  /// change. The fraction of 100 points has a standard error of at most 5
+  /// points, against a decision threshold of 50%; 0 counts all of them.
   int max_shared_points = 100;
 
   /// Throws hisfm::Error if an option is out of range.

@@ -101,7 +101,9 @@ TEST(ThreeViewConsistency, SubsampledSharedPointsKeepTheVerdict) {
     const ThreeViewResult part =
         MeasureThreeViewConsistency(cache, tracks, *xy, x, t, sampled);
     EXPECT_LE(part.num_shared, sampled.max_shared_points);
-    if (!full.judged || !part.judged || full.num_shared < 80) continue;
+    EXPECT_EQ(part.judged, full.judged);
+    EXPECT_EQ(part.num_scale_points, full.num_scale_points);
+    if (!full.judged || full.num_shared < 80) continue;
     ++num_compared;
     EXPECT_LT(part.num_shared, full.num_shared);
     EXPECT_NEAR(part.fraction, full.fraction, 0.15)

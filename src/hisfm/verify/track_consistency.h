@@ -91,7 +91,8 @@ class TrackConsistency {
     const uint8_t* states_ = nullptr;
     size_t num_keypoints_ = 0;
   };
-  /// The keypoints of `image_id` (none if the image is unknown).
+  /// The keypoints of `image_id` (none if the image is unknown); valid while
+  /// this TrackConsistency lives.
   ImageKeypoints KeypointsOf(ImageId image_id) const;
 
   /// Fraction of an image's matched keypoints that are distinctive (0 for an
