@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <random>
+#include <set>
 
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/test_util.h"
@@ -80,6 +83,94 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   EXPECT_EQ(s.expected, 0.0);
   EXPECT_EQ(s.ratio, 1.0);
   EXPECT_EQ(s.p_value, 1.0);
+}
+
+// Random matches between random images: every keypoint's state agrees with
+// the definition, computed here the slow way (the images each track holds,
+// counted per track).
+TEST(TrackConsistency, RandomGraphsAgreeWithTheDefinition) {
+  for (const uint32_t seed : {1u, 2u, 3u}) {
+    TempDir dir("hisfm-tracks");
+    std::mt19937 rng(seed);
+    const int num_images = 12, num_keypoints = 30;
+    std::vector<std::pair<ImagePair, std::vector<FeatureMatch>>> pairs;
+    {
+      DatabaseWriter writer(dir / "database.db");
+      DatabaseCamera camera;
+      camera.camera_id = 1;
+      camera.model_id = 0;
+      camera.width = 100;
+      camera.height = 100;
+      camera.params = {100, 50, 50};
+      writer.WriteCamera(camera);
+      for (ImageId id = 1; id <= num_images; ++id) {
+        writer.WriteImage({id, "im" + std::to_string(id), 1});
+        writer.WriteKeypoints(id, Keypoints::Zero(num_keypoints, 2));
+      }
+      for (ImageId a = 1; a <= num_images; ++a) {
+        for (ImageId b = a + 1; b <= num_images; ++b) {
+          if (rng() % 3 != 0) continue;
+          TwoViewGeometry g;
+          g.pair = ImagePair(a, b);
+          g.config = static_cast<int>(TwoViewConfig::kCalibrated);
+          for (int k = 0; k < 4; ++k) {
+            g.inlier_matches.push_back(
+                {Point2DIdx(rng() % num_keypoints),
+                 Point2DIdx(rng() % num_keypoints)});
+          }
+          writer.WriteTwoViewGeometry(g);
+          pairs.push_back({g.pair, g.inlier_matches});
+        }
+      }
+      writer.Close();
+    }
+    Database db(dir / "database.db");
+    const TrackConsistency tracks(db, ViewGraph::FromDatabase(db, 1));
+    // Slow: label keypoints by track, then collect each track's images.
+    auto node = [&](ImageId id, uint32_t k) {
+      return static_cast<size_t>(id - 1) * num_keypoints + k;
+    };
+    const size_t total = static_cast<size_t>(num_images) * num_keypoints;
+    std::vector<size_t> label(total);
+    for (size_t v = 0; v < total; ++v) label[v] = v;
+    std::vector<bool> matched(total, false);
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (const auto& [pair, matches] : pairs) {
+        for (const FeatureMatch& m : matches) {
+          const size_t u = node(pair.image_id1, m.idx1);
+          const size_t v = node(pair.image_id2, m.idx2);
+          matched[u] = matched[v] = true;
+          const size_t l = std::min(label[u], label[v]);
+          changed |= label[u] != l || label[v] != l;
+          label[u] = label[v] = l;
+        }
+      }
+    }
+    std::map<size_t, std::multiset<ImageId>> images_of_track;
+    for (size_t v = 0; v < total; ++v) {
+      if (matched[v]) {
+        images_of_track[label[v]].insert(
+            static_cast<ImageId>(v / num_keypoints + 1));
+      }
+    }
+    size_t num_repeated = 0;
+    for (size_t v = 0; v < total; ++v) {
+      const ImageId id = static_cast<ImageId>(v / num_keypoints + 1);
+      const uint32_t k = static_cast<uint32_t>(v % num_keypoints);
+      ASSERT_EQ(tracks.IsMatched(id, k), matched[v]);
+      if (!matched[v]) continue;
+      const std::multiset<ImageId>& images = images_of_track[label[v]];
+      const bool consistent =
+          std::set<ImageId>(images.begin(), images.end()).size() ==
+          images.size();
+      num_repeated += !consistent;
+      EXPECT_EQ(tracks.IsDistinctive(id, k), consistent)
+          << "seed " << seed << " image " << id << " keypoint " << k;
+      EXPECT_EQ(tracks.KeypointsOf(id).IsDistinctive(k), consistent);
+    }
+    EXPECT_GT(num_repeated, 0u) << "seed " << seed;
+  }
 }
 
 TEST(DistinctiveSupport, DeficiencyNeedsALargeAndSignificantShortfall) {
