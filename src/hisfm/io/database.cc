@@ -116,6 +116,17 @@ void Database::EndRead() const {
   }
 }
 
+DatabaseCamera SimplePinholeCamera(CameraId camera_id, uint64_t width,
+                                   uint64_t height, double focal_length) {
+  DatabaseCamera camera;
+  camera.camera_id = camera_id;
+  camera.model_id = 0;
+  camera.width = width;
+  camera.height = height;
+  camera.params = {focal_length, 0.5 * width, 0.5 * height};
+  return camera;
+}
+
 Database::Database(const std::string& path)
     : path_(path), statements_(std::make_unique<CachedStatements>()) {
   CheckFileReadable(path, "database");

@@ -41,6 +41,11 @@ struct DatabaseCamera {
   bool prior_focal_length = false;
 };
 
+/// A SIMPLE_PINHOLE camera (model 0) of the given size and focal length
+/// (pixels), principal point at the image centre.
+DatabaseCamera SimplePinholeCamera(CameraId camera_id, uint64_t width,
+                                   uint64_t height, double focal_length);
+
 /// A row of the `images` table (priors are not used by HiSfM).
 struct DatabaseImage {
   ImageId image_id = kInvalidImageId;

@@ -219,6 +219,15 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
   EXPECT_EQ(db.ReadInlierMatches(3, 6).size(), 15u + 18 % 7);
 }
 
+TEST(Database, SimplePinholeCameraIsCentred) {
+  const DatabaseCamera c = SimplePinholeCamera(3, 1067, 800, 900);
+  EXPECT_EQ(c.camera_id, 3u);
+  EXPECT_EQ(c.model_id, 0);  // SIMPLE_PINHOLE
+  EXPECT_EQ(c.width, 1067u);
+  EXPECT_EQ(c.height, 800u);
+  EXPECT_EQ(c.params, (std::vector<double>{900, 533.5, 400}));
+}
+
 TEST(Database, PairIdsMatchColmap) {
   EXPECT_EQ(ImagePairToPairId(1, 2), 2147483649u);
   EXPECT_EQ(ImagePairToPairId(2, 1), 2147483649u);

@@ -51,13 +51,7 @@ TEST(HierarchicalMapper, BadInputGivesOneLineErrorsAndWritesNothing) {
   // A database without verified pairs.
   {
     DatabaseWriter w(tmp / "empty.db");
-    DatabaseCamera cam;
-    cam.camera_id = 1;
-    cam.model_id = 0;
-    cam.width = 100;
-    cam.height = 100;
-    cam.params = {100, 50, 50};
-    w.WriteCamera(cam);
+    w.WriteCamera(SimplePinholeCamera(1, 100, 100, 100));
     w.WriteImage({1, "a.jpg", 1});
     w.WriteImage({2, "b.jpg", 1});
   }

@@ -58,13 +58,7 @@ SyntheticScene WriteSyntheticScene(const std::string& db_path, uint32_t seed) {
   for (int k = 0; k <= 20; ++k) s.centers.push_back(5 + 1.5 * k);
 
   DatabaseWriter writer(db_path);
-  DatabaseCamera camera;
-  camera.camera_id = 1;
-  camera.model_id = 0;
-  camera.width = 1067;
-  camera.height = 800;
-  camera.params = {800, 533.5, 400};
-  writer.WriteCamera(camera);
+  writer.WriteCamera(SimplePinholeCamera(1, 1067, 800, 800));
 
   // keypoint index of each wall point per image (-1: not detected).
   std::vector<std::vector<int>> kp_of(s.centers.size());

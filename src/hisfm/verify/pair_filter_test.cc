@@ -122,13 +122,7 @@ TEST(FilterAmbiguousPairs, RemovesStrongPairsThatCoverLittle) {
   TempDir dir("hisfm-pairfilter");
   {
     DatabaseWriter writer(dir / "database.db");
-    DatabaseCamera camera;
-    camera.camera_id = 1;
-    camera.model_id = 0;
-    camera.width = 100;
-    camera.height = 100;
-    camera.params = {100, 50, 50};
-    writer.WriteCamera(camera);
+    writer.WriteCamera(SimplePinholeCamera(1, 100, 100, 100));
     for (ImageId id = 1; id <= 4; ++id) {
       writer.WriteImage({id, "im" + std::to_string(id), 1});
       Keypoints k(200, 2);

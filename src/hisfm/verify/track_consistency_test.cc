@@ -20,13 +20,7 @@ namespace {
 // {1:2, 3:2} stays consistent; keypoints 3 and 4 are never matched.
 void WriteHandMadeDatabase(const std::string& path) {
   DatabaseWriter writer(path);
-  DatabaseCamera camera;
-  camera.camera_id = 1;
-  camera.model_id = 0;
-  camera.width = 100;
-  camera.height = 100;
-  camera.params = {100, 50, 50};
-  writer.WriteCamera(camera);
+  writer.WriteCamera(SimplePinholeCamera(1, 100, 100, 100));
   for (ImageId id = 1; id <= 3; ++id) {
     writer.WriteImage({id, "im" + std::to_string(id), 1});
     Keypoints k(5, 2);
@@ -96,13 +90,7 @@ TEST(TrackConsistency, RandomGraphsAgreeWithTheDefinition) {
     std::vector<std::pair<ImagePair, std::vector<FeatureMatch>>> pairs;
     {
       DatabaseWriter writer(dir / "database.db");
-      DatabaseCamera camera;
-      camera.camera_id = 1;
-      camera.model_id = 0;
-      camera.width = 100;
-      camera.height = 100;
-      camera.params = {100, 50, 50};
-      writer.WriteCamera(camera);
+      writer.WriteCamera(SimplePinholeCamera(1, 100, 100, 100));
       for (ImageId id = 1; id <= num_images; ++id) {
         writer.WriteImage({id, "im" + std::to_string(id), 1});
         writer.WriteKeypoints(id, Keypoints::Zero(num_keypoints, 2));
