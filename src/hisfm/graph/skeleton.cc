@@ -248,7 +248,6 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
     auto in_component = [&](CommunityId c) {
       return all.Find(c) == component_root;
     };
-    std::vector<char> dead(bridges.size(), 0);  // Rejected while repairing.
     for (size_t iteration = 0; iteration < K * members.size(); ++iteration) {
       std::vector<std::pair<size_t, size_t>> edges;
       for (const uint32_t kappa : used_kappas) {
@@ -266,13 +265,14 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
         const Bridge& b = bridges[k];
         if (!in_component(b.c1)) continue;
         if (in_side[local[b.c1]] == in_side[local[b.c2]] ||
-            (*used)[b.kappa] || dead[k]) {
+            (*used)[b.kappa]) {
           continue;
         }
+        // (A bridge rejected here is recorded once and skipped from then on:
+        // its score stays cached.)
         const double score = cache->Get(k);
         if (score < options.verify_threshold) {
           reject(k, score, BridgeRole::kConnectivity);
-          dead[k] = 1;
           continue;
         }
         (*used)[b.kappa] = 1;

@@ -20,6 +20,13 @@ ViewGraph ViewGraph::FromDatabase(const Database& database,
   return FromEdges(std::move(images), edges);
 }
 
+std::vector<ImagePair> ViewGraph::Pairs() const {
+  std::vector<ImagePair> out;
+  out.reserve(edges_.size());
+  for (const ViewGraphEdge& e : edges_) out.push_back(e.pair);
+  return out;
+}
+
 ViewGraph ViewGraph::FromEdges(std::vector<ImageId> images,
                                const std::vector<ViewGraphEdge>& edges) {
   ViewGraph g;

@@ -48,6 +48,8 @@ class ViewGraph {
     const ImagePair& p = edges_[e].pair;
     return p.image_id1 == id ? p.image_id2 : p.image_id1;
   }
+  /// The edges' pairs, in edge order (ascending pair).
+  std::vector<ImagePair> Pairs() const;
   /// Weight of the edge between a and b, 0 if there is none.
   uint32_t Weight(ImageId a, ImageId b) const;
   /// Connected components (each sorted), largest first; isolated images form

@@ -15,6 +15,7 @@
 #include "hisfm/io/sqlite_util.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/parallel.h"
 
 namespace hisfm {
 namespace {
@@ -250,38 +251,20 @@ std::vector<VerifiedPair> Database::ReadVerifiedPairs(
   }
   std::vector<VerifiedPair> pairs;
   if (hi < lo) return pairs;
-  const sqlite3_int64 mid = lo + (hi - lo) / 2;
-  std::vector<VerifiedPair> upper;
-  std::exception_ptr error;
-  sqlite3* second = nullptr;
-  if (hi > lo && sqlite3_open_v2(path_.c_str(), &second, SQLITE_OPEN_READONLY,
-                                 nullptr) != SQLITE_OK) {
-    sqlite3_close(second);
-    second = nullptr;
-  }
-  std::thread worker;
-  if (second) {
-    sqlite3_busy_timeout(second, 5000);
-    worker = std::thread([&] {
-      try {
-        ReadVerifiedPairRange(second, mid, hi + 1, min_num_inliers, &upper);
-      } catch (...) {
-        error = std::current_exception();
-      }
-    });
-  }
-  try {
-    ReadVerifiedPairRange(db_, lo, second ? mid : hi + 1, min_num_inliers,
-                          &pairs);
-  } catch (...) {
-    if (worker.joinable()) worker.join();
-    sqlite3_close(second);
-    throw;
-  }
-  if (worker.joinable()) worker.join();
-  sqlite3_close(second);
-  if (error) std::rethrow_exception(error);
-  pairs.insert(pairs.end(), upper.begin(), upper.end());
+  const SqliteConnection second =
+      hi > lo ? OpenReadOnlyConnection(path_) : nullptr;
+  // Half h reads [bounds[h], bounds[h + 1]) through connections[h].
+  const sqlite3_int64 bounds[3] = {lo, lo + (hi - lo) / 2, hi + 1};
+  sqlite3* const connections[2] = {db_, second.get()};
+  const size_t num_halves = second ? 2 : 1;
+  std::vector<VerifiedPair> halves[2];
+  ParallelFor(num_halves, 2, [&](size_t h) {
+    ReadVerifiedPairRange(connections[h], bounds[h],
+                          num_halves == 1 ? bounds[2] : bounds[h + 1],
+                          min_num_inliers, &halves[h]);
+  });
+  pairs = std::move(halves[0]);
+  pairs.insert(pairs.end(), halves[1].begin(), halves[1].end());
   return pairs;
 }
 
@@ -411,19 +394,15 @@ void Database::ForEachInlierMatches(
   constexpr size_t kMinPairsToReadAhead = 4096;
   constexpr size_t kChunkPairs = 512;
   constexpr size_t kMaxQueuedChunks = 4;
-  sqlite3* reader = nullptr;
-  if (ids.size() >= kMinPairsToReadAhead &&
-      sqlite3_open_v2(path_.c_str(), &reader, SQLITE_OPEN_READONLY,
-                      nullptr) != SQLITE_OK) {
-    sqlite3_close(reader);
-    reader = nullptr;
-  }
+  const SqliteConnection connection = ids.size() >= kMinPairsToReadAhead
+                                          ? OpenReadOnlyConnection(path_)
+                                          : nullptr;
+  sqlite3* const reader = connection.get();
   if (!reader) {
     ReadScope scope(*this);
     ScanInlierMatches(db_, ids, call);
     return;
   }
-  sqlite3_busy_timeout(reader, 5000);
   std::mutex mutex;
   std::condition_variable changed;
   std::deque<MatchChunk> queue;
@@ -458,13 +437,7 @@ void Database::ForEachInlierMatches(
     done = true;
     changed.notify_all();
   };
-  std::thread producer;
-  try {
-    producer = std::thread(produce);
-  } catch (...) {
-    sqlite3_close(reader);
-    throw;
-  }
+  std::thread producer(produce);
   auto finish = [&] {
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -472,7 +445,6 @@ void Database::ForEachInlierMatches(
       changed.notify_all();
     }
     producer.join();
-    sqlite3_close(reader);
   };
   try {
     while (true) {

@@ -24,6 +24,16 @@ void SqliteStatement::Reset() {
   sqlite3_clear_bindings(stmt_);
 }
 
+SqliteConnection OpenReadOnlyConnection(const std::string& path) {
+  sqlite3* db = nullptr;
+  const int rc =
+      sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr);
+  SqliteConnection connection(db);
+  if (rc != SQLITE_OK) return nullptr;
+  sqlite3_busy_timeout(db, 5000);
+  return connection;
+}
+
 void SqliteExec(sqlite3* db, const std::string& sql) {
   char* message = nullptr;
   const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);

@@ -4,6 +4,8 @@
 
 #include <sqlite3.h>
 
+#include <memory>
+
 #include <string>
 
 #include "hisfm/util/error.h"
@@ -29,6 +31,17 @@ class SqliteStatement {
   sqlite3_stmt* stmt_ = nullptr;
   std::string sql_;
 };
+
+/// Closes a connection (for std::unique_ptr).
+struct SqliteCloser {
+  void operator()(sqlite3* db) const { sqlite3_close(db); }
+};
+/// A connection closed on destruction.
+using SqliteConnection = std::unique_ptr<sqlite3, SqliteCloser>;
+
+/// Opens a second, read-only connection to a database already opened
+/// elsewhere (5 s busy timeout); null if it cannot be opened.
+SqliteConnection OpenReadOnlyConnection(const std::string& path);
 
 /// Executes SQL without results; throws Error naming `context` on failure.
 void SqliteExec(sqlite3* db, const std::string& sql);

@@ -9,7 +9,7 @@
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
 #include "hisfm/io/model.h"
-#include "hisfm/synth/synth_parallel.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
@@ -53,7 +53,7 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
       " --SiftMatching.min_num_inliers ", options.min_num_inliers,
       " --SiftMatching.max_error ", options.max_error,
       " --SiftMatching.min_inlier_ratio ", options.min_inlier_ratio,
-      " --SiftMatching.num_threads ", SynthNumThreads(options.num_threads),
+      " --SiftMatching.num_threads ", NumWorkerThreads(options.num_threads),
       " > ", ShellQuote(log_path), " 2>&1");
   HISFM_LOG_INFO("Running {}", command);
   const int status = std::system(command.c_str());

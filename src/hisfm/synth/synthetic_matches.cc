@@ -7,8 +7,8 @@
 #include <numeric>
 #include <unordered_map>
 
-#include "hisfm/synth/synth_parallel.h"
 #include "hisfm/synth/synth_random.h"
+#include "hisfm/util/parallel.h"
 
 namespace hisfm {
 namespace {
@@ -78,7 +78,7 @@ std::vector<ImagePair> FindSynthCandidatePairs(const SyntheticScene& scene) {
 
   const std::vector<int> elements = layout.symmetry.Elements();
   std::vector<std::vector<uint64_t>> per_image(n);
-  SynthParallelFor(n, scene.options.num_threads, [&](size_t j) {
+  ParallelFor(n, scene.options.num_threads, [&](size_t j) {
     std::vector<uint64_t>& out = per_image[j];
     for (int k : elements) {
       const Eigen::Vector3d y = layout.symmetry.Transform(-k) * centers[j];
@@ -325,7 +325,7 @@ void ForEachSynthPair(const SyntheticScene& scene, bool verify,
     const size_t begin = batch * kBatchSize;
     const size_t end = std::min(candidates.size(), begin + kBatchSize);
     std::vector<SynthPair> pairs(end - begin);
-    SynthParallelFor(end - begin, scene.options.num_threads, [&](size_t k) {
+    ParallelFor(end - begin, scene.options.num_threads, [&](size_t k) {
       const ImagePair& pair = candidates[begin + k];
       SynthPair& out = pairs[k];
       out.matches = MatchSynthImages(scene, pair.image_id1, pair.image_id2);

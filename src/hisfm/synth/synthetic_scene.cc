@@ -5,9 +5,9 @@
 #include <cstdio>
 #include <unordered_map>
 
-#include "hisfm/synth/synth_parallel.h"
 #include "hisfm/synth/synth_random.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/parallel.h"
 
 namespace hisfm {
 namespace {
@@ -219,7 +219,7 @@ SyntheticScene GenerateScene(const SynthOptions& options) {
   const PointGrid grid(scene.layout.points,
                        std::max(1.0, scene.layout.max_view_distance / 8.0));
   scene.images.resize(scene.layout.cams_from_world.size());
-  SynthParallelFor(scene.images.size(), options.num_threads, [&](size_t i) {
+  ParallelFor(scene.images.size(), options.num_threads, [&](size_t i) {
     GenerateImage(scene, grid, i, &scene.images[i]);
   });
   return scene;

@@ -2,12 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <exception>
 #include <functional>
-#include <thread>
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/util/timer.h"
 
 namespace hisfm {
@@ -140,14 +139,13 @@ void ContextDisambiguator::Prepare(const ImagePair& pair) {
     grid_.Load(id);
     const double ref = ReferenceCells(id);
     ImageCache& c = cache_.at(id);
-    if (c.bridge_reference_done) continue;
+    if (c.bridge_reference > 0) continue;
     // An image without a trusted neighbour: the scene's typical fraction of
     // its textured cells.
     c.bridge_reference =
         c.has_reference
             ? ref
             : std::max(1.0, SceneReferenceFraction() * grid_.TexturedCells(id));
-    c.bridge_reference_done = true;
   }
   if (options_.min_distinctive_ratio > 0) Tracks();
 }
@@ -198,15 +196,24 @@ BridgeEvidence ContextDisambiguator::MeasureInliers(
   return ev;
 }
 
+const std::vector<ImagePair>& ContextDisambiguator::Bridges() {
+  if (!bridges_) {
+    // The graph's edges, and so the bridges, are in pair-id order.
+    bridges_.emplace();
+    for (const ViewGraphEdge& e : graph_.Edges()) {
+      if (communities_.Of(e.pair.image_id1) !=
+          communities_.Of(e.pair.image_id2)) {
+        bridges_->push_back(e.pair);
+      }
+    }
+  }
+  return *bridges_;
+}
+
 void ContextDisambiguator::MeasureAllBridges() {
   bulk_done_ = true;
   const Timer timer;
-  // The graph's edges, and so the bridges, are in pair-id order.
-  std::vector<ImagePair> bridges;
-  for (const ViewGraphEdge& e : graph_.Edges()) {
-    if (communities_.Of(e.pair.image_id1) != communities_.Of(e.pair.image_id2))
-      bridges.push_back(e.pair);
-  }
+  const std::vector<ImagePair>& bridges = Bridges();
   for (const ImagePair& p : bridges) Prepare(p);
   // Thread w scans its own range of pair ids.
   std::vector<std::vector<std::pair<PairId, double>>> parts(
@@ -244,26 +251,13 @@ void ContextDisambiguator::RunOnThreads(
   while (workers_.size() + 1 < num_threads) {
     workers_.push_back(std::make_unique<Worker>(database_.path()));
   }
-  std::vector<std::exception_ptr> errors(num_threads);
-  std::vector<std::thread> threads;
-  for (size_t w = 1; w < num_threads; ++w) {
-    threads.emplace_back([&, w] {
-      try {
-        fn(w, workers_[w - 1]->database, &workers_[w - 1]->scratch);
-      } catch (...) {
-        errors[w] = std::current_exception();
-      }
-    });
-  }
-  try {
-    fn(0, database_, &scratch_);
-  } catch (...) {
-    errors[0] = std::current_exception();
-  }
-  for (std::thread& t : threads) t.join();
-  for (const std::exception_ptr& e : errors) {
-    if (e) std::rethrow_exception(e);
-  }
+  ParallelFor(num_threads, static_cast<int>(num_threads), [&](size_t w) {
+    if (w == 0) {
+      fn(0, database_, &scratch_);
+    } else {
+      fn(w, workers_[w - 1]->database, &workers_[w - 1]->scratch);
+    }
+  });
 }
 
 std::vector<double> ContextDisambiguator::Score(
@@ -272,13 +266,7 @@ std::vector<double> ContextDisambiguator::Score(
   if (!bulk_done_ && options_.bulk_after_fraction > 0 &&
       options_.bulk_after_fraction < 1 &&
       num_requested_ >= static_cast<size_t>(options_.bulk_min_bridges)) {
-    if (num_bridges_ == 0) {
-      for (const ViewGraphEdge& e : graph_.Edges()) {
-        num_bridges_ += communities_.Of(e.pair.image_id1) !=
-                        communities_.Of(e.pair.image_id2);
-      }
-    }
-    if (num_requested_ > options_.bulk_after_fraction * num_bridges_) {
+    if (num_requested_ > options_.bulk_after_fraction * Bridges().size()) {
       MeasureAllBridges();
     }
   }

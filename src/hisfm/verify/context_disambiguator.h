@@ -60,6 +60,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -202,10 +203,9 @@ class ContextDisambiguator : public BridgeScorer {
     bool has_reference = false;
     double reference_cells = 0;
     bool reference_done = false;
-    // The reference a bridge divides by (with the scene fallback), set by
-    // Prepare.
+    // The reference a bridge divides by (with the scene fallback, at least
+    // 1), set by Prepare; 0 until then.
     double bridge_reference = 0;
-    bool bridge_reference_done = false;
   };
   // One thread's reading connection and scratch.
   struct Worker;
@@ -223,6 +223,8 @@ class ContextDisambiguator : public BridgeScorer {
       size_t num_threads,
       const std::function<void(size_t, const Database&,
                                CoverageGrid::Scratch*)>& fn);
+  // The graph's edges across communities, in pair-id order (cached).
+  const std::vector<ImagePair>& Bridges();
   // Measures every bridge of the graph in one sequential read
   // (bulk_after_fraction).
   void MeasureAllBridges();
@@ -251,8 +253,9 @@ class ContextDisambiguator : public BridgeScorer {
   // Pairs asked for through Score (bridges or not), and the bulk
   // measurements, sorted by pair id.
   size_t num_requested_ = 0;
-  size_t num_bridges_ = 0;  // Counted when first needed.
   bool bulk_done_ = false;
+  // The graph's bridges, listed when first needed.
+  std::optional<std::vector<ImagePair>> bridges_;
   std::vector<std::pair<PairId, double>> bulk_scores_;
 };
 

@@ -392,8 +392,7 @@ TEST(ContextDisambiguator, ThreadedBatchesScoreLikeOneByOne) {
   Database& db = street.db;
   const ViewGraph& graph = street.graph;
   const Communities& comm = street.communities;
-  std::vector<ImagePair> pairs;
-  for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
+  const std::vector<ImagePair> pairs = graph.Pairs();
   ASSERT_GE(pairs.size(), 20u);
   DisambiguatorOptions serial_options;
   serial_options.num_threads = 1;

@@ -40,25 +40,18 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   std::vector<ViewGraphEdge> kept_a;
   // Distinctive inliers of each pair kept by A: ranks third views for B.
   std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
-  std::unordered_map<ImagePair, DistinctiveSupport, ImagePairHash> support;
-  {
-    std::vector<ImagePair> pairs;
-    pairs.reserve(graph.NumEdges());
-    for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
-    support.reserve(pairs.size());
-    database.ForEachInlierMatches(
-        std::move(pairs), [&](const ImagePair& pair,
-                              const std::vector<FeatureMatch>& inliers) {
-          support[pair] = tracks.Support(pair, inliers);
-        });
-  }
-  for (const ViewGraphEdge& e : graph.Edges()) {
-    auto it = support.find(e.pair);
-    if (it == support.end()) {
-      throw Error(StrCat("no two-view geometry for images ", e.pair.image_id1,
-                         " and ", e.pair.image_id2, " in ", database.path()));
-    }
-    const DistinctiveSupport& s = it->second;
+  // In edge order: the reads come in pair-id order, and the tracks above
+  // already failed if a pair had no two-view geometry.
+  std::vector<DistinctiveSupport> support;
+  support.reserve(graph.NumEdges());
+  database.ForEachInlierMatches(
+      graph.Pairs(), [&](const ImagePair& pair,
+                         const std::vector<FeatureMatch>& inliers) {
+        support.push_back(tracks.Support(pair, inliers));
+      });
+  for (size_t i = 0; i < graph.NumEdges(); ++i) {
+    const ViewGraphEdge& e = graph.Edges()[i];
+    const DistinctiveSupport& s = support.at(i);
     if (options.min_distinctive_ratio > 0 &&
         s.Deficient(options.min_distinctive_ratio,
                     options.distinctive_significance)) {

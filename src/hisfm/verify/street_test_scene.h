@@ -113,13 +113,7 @@ inline Scene Write(const std::string& path, const Options& options) {
   }
 
   DatabaseWriter writer(path);
-  DatabaseCamera camera;
-  camera.camera_id = 1;
-  camera.model_id = 0;  // SIMPLE_PINHOLE
-  camera.width = kWidth;
-  camera.height = kHeight;
-  camera.params = {kFocal, kWidth / 2.0, kHeight / 2.0};
-  writer.WriteCamera(camera);
+  writer.WriteCamera(SimplePinholeCamera(1, kWidth, kHeight, kFocal));
   // Per image: keypoint of each point (-1 if not detected), and pixels.
   std::vector<std::vector<int>> keypoint_of(options.num_images);
   std::vector<std::vector<Eigen::Vector2d>> pixels(options.num_images);

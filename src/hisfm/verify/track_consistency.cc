@@ -26,13 +26,10 @@ TrackConsistency::TrackConsistency(const Database& database,
   }
   state_.assign(total, kUnmatched);
   UnionFind tracks(total);
-  std::vector<ImagePair> pairs;
-  pairs.reserve(graph.NumEdges());
-  for (const ViewGraphEdge& e : graph.Edges()) pairs.push_back(e.pair);
   size_t num_read = 0;
   database.ForEachInlierMatches(
-      std::move(pairs), [&](const ImagePair& pair,
-                            const std::vector<FeatureMatch>& inliers) {
+      graph.Pairs(), [&](const ImagePair& pair,
+                         const std::vector<FeatureMatch>& inliers) {
         ++num_read;
         const ImageState& s1 = images_.at(pair.image_id1);
         const ImageState& s2 = images_.at(pair.image_id2);

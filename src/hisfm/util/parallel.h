@@ -1,4 +1,5 @@
-// A minimal parallel loop for the generator.
+// A minimal parallel loop (the synthetic generator, the database readers,
+// the builtin verifier).
 #pragma once
 
 #include <algorithm>
@@ -12,7 +13,7 @@
 namespace hisfm {
 
 /// Number of worker threads for `requested` (<= 0: every core).
-inline int SynthNumThreads(int requested) {
+inline int NumWorkerThreads(int requested) {
   if (requested > 0) return requested;
   return std::max(1u, std::thread::hardware_concurrency());
 }
@@ -21,9 +22,9 @@ inline int SynthNumThreads(int requested) {
 /// scheduling in blocks of `grain`). fn must only write to data owned by
 /// index i. The first exception thrown by fn is rethrown here.
 template <typename Fn>
-void SynthParallelFor(size_t n, int num_threads, Fn&& fn, size_t grain = 1) {
+void ParallelFor(size_t n, int num_threads, Fn&& fn, size_t grain = 1) {
   const size_t threads =
-      std::min<size_t>(SynthNumThreads(num_threads), (n + grain - 1) / grain);
+      std::min<size_t>(NumWorkerThreads(num_threads), (n + grain - 1) / grain);
   if (threads <= 1) {
     for (size_t i = 0; i < n; ++i) fn(i);
     return;
