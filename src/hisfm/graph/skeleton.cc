@@ -256,7 +256,7 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
               {local[kappas[kappa].first], local[kappas[kappa].second]});
         }
       }
-      const MinCut cut = GlobalMinCut(members.size(), edges);
+      const MinCut cut = GlobalMinCut(members.size(), edges, K);
       if (cut.value >= static_cast<size_t>(K)) break;
       std::vector<bool> in_side(members.size(), false);
       for (size_t v : cut.side) in_side[v] = true;

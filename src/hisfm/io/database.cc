@@ -3,6 +3,7 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <atomic>
 #include <condition_variable>
 #include <cstring>
 #include <deque>
@@ -237,34 +238,53 @@ void ReadVerifiedPairRange(sqlite3* db, sqlite3_int64 begin, sqlite3_int64 end,
 std::vector<VerifiedPair> Database::ReadVerifiedPairs(
     uint32_t min_num_inliers) const {
   // Each row fills most of a page (its inliers are stored inline), so the
-  // scan reads the whole table: two connections read the two halves of the
-  // pair-id range at once.
-  sqlite3_int64 lo = 0, hi = -1;
-  {
-    SqliteStatement range(
-        db_, "SELECT min(pair_id), max(pair_id) FROM two_view_geometries");
-    if (range.Step() &&
-        sqlite3_column_type(range.get(), 0) != SQLITE_NULL) {
-      lo = sqlite3_column_int64(range.get(), 0);
-      hi = sqlite3_column_int64(range.get(), 1);
+  // scan reads the whole table. Two connections share it: the range of first
+  // image ids is cut into chunks that they take in turn, so that neither
+  // waits for the other however the pairs are spread (an exhaustively
+  // matched scene has most pairs at low first ids, a sequence has them
+  // evenly).
+  // (Two statements: SQLite finds a lone min() or max() of the rowid by one
+  // descent of the b-tree, but scans the whole table for both at once.)
+  auto end_pair = [&](const char* sql, ImageId* first) {
+    SqliteStatement stmt(db_, sql);
+    if (!stmt.Step() || sqlite3_column_type(stmt.get(), 0) == SQLITE_NULL) {
+      return false;
     }
+    *first = PairIdToImagePair(sqlite3_column_int64(stmt.get(), 0)).image_id1;
+    return true;
+  };
+  ImageId first_lo = 0, first_hi = 0;
+  if (!end_pair("SELECT min(pair_id) FROM two_view_geometries", &first_lo) ||
+      !end_pair("SELECT max(pair_id) FROM two_view_geometries", &first_hi)) {
+    return {};
   }
-  std::vector<VerifiedPair> pairs;
-  if (hi < lo) return pairs;
+  constexpr size_t kChunksPerConnection = 32;
+  const size_t num_firsts = static_cast<size_t>(first_hi - first_lo) + 1;
+  const size_t num_chunks = std::min(2 * kChunksPerConnection, num_firsts);
+  // Chunk c holds the pairs whose first image id is in
+  // [first_lo + c * num_firsts / num_chunks, first_lo + (c + 1) * ...).
+  auto chunk_begin = [&](size_t c) {
+    return static_cast<sqlite3_int64>(
+        kMaxNumImages * (first_lo + c * num_firsts / num_chunks));
+  };
   const SqliteConnection second =
-      hi > lo ? OpenReadOnlyConnection(path_) : nullptr;
-  // Half h reads [bounds[h], bounds[h + 1]) through connections[h].
-  const sqlite3_int64 bounds[3] = {lo, lo + (hi - lo) / 2, hi + 1};
+      num_chunks > 1 ? OpenReadOnlyConnection(path_) : nullptr;
   sqlite3* const connections[2] = {db_, second.get()};
-  const size_t num_halves = second ? 2 : 1;
-  std::vector<VerifiedPair> halves[2];
-  ParallelFor(num_halves, 2, [&](size_t h) {
-    ReadVerifiedPairRange(connections[h], bounds[h],
-                          num_halves == 1 ? bounds[2] : bounds[h + 1],
-                          min_num_inliers, &halves[h]);
+  std::vector<std::vector<VerifiedPair>> chunks(num_chunks);
+  std::atomic<size_t> next_chunk(0);
+  ParallelFor(second ? 2 : 1, 2, [&](size_t w) {
+    for (size_t c = next_chunk++; c < num_chunks; c = next_chunk++) {
+      ReadVerifiedPairRange(connections[w], chunk_begin(c),
+                            chunk_begin(c + 1), min_num_inliers, &chunks[c]);
+    }
   });
-  pairs = std::move(halves[0]);
-  pairs.insert(pairs.end(), halves[1].begin(), halves[1].end());
+  size_t total = 0;
+  for (const auto& chunk : chunks) total += chunk.size();
+  std::vector<VerifiedPair> pairs;
+  pairs.reserve(total);
+  for (const auto& chunk : chunks) {
+    pairs.insert(pairs.end(), chunk.begin(), chunk.end());
+  }
   return pairs;
 }
 
