@@ -96,14 +96,10 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  o->verifier.builtin.distinctive_significance,
                  "builtin verifier: significance of a distinctive shortfall")
       ->capture_default_str();
-  app.add_option("--HiSfM.verifier_num_threads",
-                 o->verifier.builtin.num_threads,
-                 "builtin verifier: threads measuring bridges")
-      ->capture_default_str();
-  app.add_option("--HiSfM.verifier_bulk_after_fraction",
-                 o->verifier.builtin.bulk_after_fraction,
-                 "builtin verifier: once this fraction of the bridges was "
-                 "asked for, measure all of them in one scan (0 = never)")
+  app.add_option("--HiSfM.verifier_scan_memory_mb",
+                 o->verifier.builtin.max_scan_memory_mb,
+                 "builtin verifier: MiB for what the tracks' read records of "
+                 "the bridges (beyond it, bridges are read when asked for)")
       ->capture_default_str();
   app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
                  "Bridges per call of a command verifier")

@@ -385,14 +385,22 @@ struct MatchChunk {
   // Matches of ids[k]: [offsets[k], offsets[k + 1]) of `matches`.
   std::vector<size_t> offsets{0};
   std::vector<FeatureMatch> matches;
+
+  // Empties the chunk, keeping its capacity for the next one.
+  void Clear() {
+    ids.clear();
+    offsets.resize(1);
+    matches.clear();
+  }
 };
 
 }  // namespace
 
 void Database::ForEachInlierMatches(
     std::vector<ImagePair> pairs,
-    const std::function<void(const ImagePair&,
-                             const std::vector<FeatureMatch>&)>& fn) const {
+    const std::function<void(const ImagePair&, FeatureMatchSpan)>& fn,
+    const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_read)
+    const {
   std::vector<PairId> ids;
   ids.reserve(pairs.size());
   for (const ImagePair& p : pairs) {
@@ -402,12 +410,6 @@ void Database::ForEachInlierMatches(
   pairs.shrink_to_fit();
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  std::vector<FeatureMatch> matches;
-  auto call = [&](PairId id, const MatchesView& v) {
-    matches.clear();
-    AppendMatches(v, &matches);
-    fn(PairIdToImagePair(id), matches);
-  };
 
   // Many pairs: a second connection reads ahead on its own thread while
   // `fn` runs on this one.
@@ -419,13 +421,24 @@ void Database::ForEachInlierMatches(
                                           : nullptr;
   sqlite3* const reader = connection.get();
   if (!reader) {
+    // The blobs are not aligned for FeatureMatch: copied first.
+    std::vector<FeatureMatch> matches;
     ReadScope scope(*this);
-    ScanInlierMatches(db_, ids, call);
+    ScanInlierMatches(db_, ids, [&](PairId id, const MatchesView& v) {
+      matches.clear();
+      AppendMatches(v, &matches);
+      const ImagePair pair = PairIdToImagePair(id);
+      if (on_read) on_read(pair, matches);
+      fn(pair, matches);
+    });
     return;
   }
   std::mutex mutex;
   std::condition_variable changed;
   std::deque<MatchChunk> queue;
+  // Chunks the caller has finished with, reused by the reader so that their
+  // buffers are allocated once.
+  std::vector<MatchChunk> spare;
   bool done = false, stop = false;
   std::exception_ptr error;
   auto produce = [&] {
@@ -437,7 +450,12 @@ void Database::ForEachInlierMatches(
       if (stop) throw Error("reading stopped");
       queue.push_back(std::move(chunk));
       changed.notify_all();
-      chunk = MatchChunk();
+      if (spare.empty()) {
+        chunk = MatchChunk();
+      } else {
+        chunk = std::move(spare.back());
+        spare.pop_back();
+      }
     };
     try {
       sqlite3_exec(reader, "BEGIN;", nullptr, nullptr, nullptr);
@@ -445,6 +463,11 @@ void Database::ForEachInlierMatches(
         chunk.ids.push_back(id);
         AppendMatches(v, &chunk.matches);
         chunk.offsets.push_back(chunk.matches.size());
+        if (on_read) {
+          on_read(PairIdToImagePair(id),
+                  FeatureMatchSpan(chunk.matches.data() + chunk.offsets.end()[-2],
+                                   v.size));
+        }
         if (chunk.ids.size() == kChunkPairs) push();
       });
       if (!chunk.ids.empty()) push();
@@ -478,9 +501,13 @@ void Database::ForEachInlierMatches(
         changed.notify_all();
       }
       for (size_t k = 0; k < chunk.ids.size(); ++k) {
-        call(chunk.ids[k], {chunk.matches.data() + chunk.offsets[k],
-                            chunk.offsets[k + 1] - chunk.offsets[k]});
+        fn(PairIdToImagePair(chunk.ids[k]),
+           FeatureMatchSpan(chunk.matches.data() + chunk.offsets[k],
+                            chunk.offsets[k + 1] - chunk.offsets[k]));
       }
+      chunk.Clear();
+      std::lock_guard<std::mutex> lock(mutex);
+      spare.push_back(std::move(chunk));
     }
   } catch (...) {
     finish();

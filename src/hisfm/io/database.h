@@ -60,6 +60,27 @@ struct FeatureMatch {
   Point2DIdx idx2 = 0;
 };
 
+/// A read-only run of feature matches that it does not own: valid only as
+/// long as the storage it views (for a callback argument, during the call).
+class FeatureMatchSpan {
+ public:
+  FeatureMatchSpan() = default;
+  FeatureMatchSpan(const FeatureMatch* data, size_t size)
+      : data_(data), size_(size) {}
+  /// Views a whole vector (implicit, so vectors pass where spans are taken).
+  FeatureMatchSpan(const std::vector<FeatureMatch>& matches)  // NOLINT
+      : data_(matches.data()), size_(matches.size()) {}
+  const FeatureMatch* begin() const { return data_; }
+  const FeatureMatch* end() const { return data_ + size_; }
+  const FeatureMatch& operator[](size_t i) const { return data_[i]; }
+  size_t size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+
+ private:
+  const FeatureMatch* data_ = nullptr;
+  size_t size_ = 0;
+};
+
 /// COLMAP's TwoViewGeometry::ConfigurationType values.
 enum class TwoViewConfig : int {
   kUndefined = 0,
@@ -131,15 +152,22 @@ class Database {
   /// Reads the inlier matches of many pairs in ascending pair-id order
   /// (sequential page access, one prepared statement, one read transaction)
   /// and calls `fn(pair, matches)` for each, on the calling thread, the pair
-  /// oriented as stored; pairs absent from the database are skipped,
+  /// oriented as stored (the span is valid during the call only); pairs
+  /// absent from the database are skipped,
   /// duplicates read once. From 4,096 pairs on, a second read-only
   /// connection (its own snapshot, outside any ReadScope of this one) reads
-  /// ahead on its own thread while `fn` runs. An exception thrown by `fn`
-  /// or by the reading stops both and reaches the caller.
+  /// ahead on its own thread while `fn` runs. `on_read`, if set, is called
+  /// with each pair as it is read, before `fn` gets it and in the same
+  /// order, on that reading thread when there is one: concurrently with
+  /// `fn`, so the two must not share unsynchronized state (work on the
+  /// matches that needs nothing from `fn` thus runs on the second core). An
+  /// exception thrown by `fn`, `on_read` or the reading stops both and
+  /// reaches the caller.
   void ForEachInlierMatches(
       std::vector<ImagePair> pairs,
-      const std::function<void(const ImagePair&,
-                               const std::vector<FeatureMatch>&)>& fn) const;
+      const std::function<void(const ImagePair&, FeatureMatchSpan)>& fn,
+      const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_read =
+          nullptr) const;
   /// Number of keypoints of every image that has a keypoints row (reads only
   /// the row counts, not the keypoint data).
   std::unordered_map<ImageId, size_t> ReadNumKeypoints() const;

@@ -143,7 +143,7 @@ TEST(Database, BulkAndInlierReadsAgreeWithFullReads) {
     const Database::ReadScope nested(db);
     db.ForEachInlierMatches(
         requested, [&](const ImagePair& pair,
-                       const std::vector<FeatureMatch>& matches) {
+                       FeatureMatchSpan matches) {
           visited.push_back(pair);
           const TwoViewGeometry full =
               db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
@@ -183,7 +183,7 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
   std::vector<PairId> visited;
   db.ForEachInlierMatches(
       requested,
-      [&](const ImagePair& pair, const std::vector<FeatureMatch>& matches) {
+      [&](const ImagePair& pair, FeatureMatchSpan matches) {
         visited.push_back(ImagePairToPairId(pair.image_id1, pair.image_id2));
         const size_t expected =
             15 + (pair.image_id1 * pair.image_id2) % 7;
@@ -201,7 +201,7 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
   size_t num_calls = 0;
   EXPECT_THROW(db.ForEachInlierMatches(
                    requested,
-                   [&](const ImagePair&, const std::vector<FeatureMatch>&) {
+                   [&](const ImagePair&, FeatureMatchSpan) {
                      if (++num_calls == 3000) throw Error("stop here");
                    }),
                Error);
@@ -210,7 +210,7 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
   num_calls = 0;
   EXPECT_THROW(db.ForEachInlierMatches(
                    requested,
-                   [&](const ImagePair&, const std::vector<FeatureMatch>&) {
+                   [&](const ImagePair&, FeatureMatchSpan) {
                      ++num_calls;
                      throw Error("stop at once");
                    }),

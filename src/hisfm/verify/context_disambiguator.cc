@@ -6,7 +6,6 @@
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
-#include "hisfm/util/parallel.h"
 #include "hisfm/util/timer.h"
 
 namespace hisfm {
@@ -18,17 +17,8 @@ void DisambiguatorOptions::Check() const {
   HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
   HISFM_CHECK_OPTION(distinctive_significance > 0 &&
                      distinctive_significance <= 1);
-  HISFM_CHECK_OPTION(num_threads >= 1 && num_threads <= 64);
-  HISFM_CHECK_OPTION(bulk_after_fraction >= 0 && bulk_after_fraction <= 1);
-  HISFM_CHECK_OPTION(bulk_min_bridges >= 1);
+  HISFM_CHECK_OPTION(max_scan_memory_mb >= 0);
 }
-
-struct ContextDisambiguator::Worker {
-  explicit Worker(const std::string& path) : database(path), scope(database) {}
-  Database database;
-  Database::ReadScope scope;
-  CoverageGrid::Scratch scratch;
-};
 
 namespace {
 
@@ -119,20 +109,61 @@ double ContextDisambiguator::SceneReferenceFraction() {
 }
 
 const TrackConsistency& ContextDisambiguator::Tracks() {
-  if (!tracks_) {
-    const Timer timer;
-    tracks_ = std::make_unique<TrackConsistency>(database_, graph_);
-    HISFM_LOG_DEBUG("builtin verifier: tracks of {} pairs ({:.2f} s)",
-                    graph_.NumEdges(), timer.ElapsedSeconds());
+  if (tracks_) return *tracks_;
+  const Timer timer;
+  // The read that joins the tracks also records every bridge (both are in
+  // pair-id order), on the reading thread while this one joins the tracks.
+  const std::vector<ImagePair>& bridges = Bridges();
+  for (const ImagePair& p : bridges) {
+    grid_.Load(p.image_id1);
+    grid_.Load(p.image_id2);
   }
+  const std::unordered_map<ImageId, size_t> num_keypoints =
+      database_.ReadNumKeypoints();
+  records_.assign(bridges.size(), ScanRecord());
+  const size_t max_bytes =
+      static_cast<size_t>(options_.max_scan_memory_mb) << 20;
+  size_t next = 0;
+  CoverageGrid::Scratch scratch;
+  tracks_ = std::make_unique<TrackConsistency>(
+      database_, graph_,
+      [&](const ImagePair& pair, FeatureMatchSpan inliers) {
+        while (next < bridges.size() && bridges[next] < pair) ++next;
+        if (next == bridges.size() || !(bridges[next] == pair)) return;
+        if (bridge_keypoints_.Bytes() +
+                records_.size() * sizeof(ScanRecord) >=
+            max_bytes) {
+          return;
+        }
+        auto it = num_keypoints.find(pair.image_id1);
+        Record(next, it == num_keypoints.end() ? 0 : it->second, inliers,
+               &scratch);
+      });
+  size_t num_recorded = 0;
+  for (const ScanRecord& r : records_) num_recorded += r.recorded;
+  HISFM_LOG_DEBUG(
+      "builtin verifier: tracks of {} pairs, {} of {} bridges recorded "
+      "({} MB; {:.2f} s)",
+      graph_.NumEdges(), num_recorded, bridges.size(),
+      (bridge_keypoints_.Bytes() + records_.size() * sizeof(ScanRecord)) >>
+          20,
+      timer.ElapsedSeconds());
   return *tracks_;
 }
 
-ContextDisambiguator::~ContextDisambiguator() = default;
-
-size_t ContextDisambiguator::PreferredBatchSize() const {
-  return options_.num_threads > 1 ? 256 : 1;
+void ContextDisambiguator::Record(size_t bridge, size_t num_keypoints1,
+                                  FeatureMatchSpan inliers,
+                                  CoverageGrid::Scratch* scratch) {
+  const ImagePair& pair = (*bridges_)[bridge];
+  ScanRecord& r = records_[bridge];
+  r.recorded = true;
+  r.num_inliers = static_cast<uint32_t>(inliers.size());
+  r.cells1 = grid_.CoveredCells(pair.image_id1, inliers, true, scratch);
+  r.cells2 = grid_.CoveredCells(pair.image_id2, inliers, false, scratch);
+  r.keypoints = bridge_keypoints_.Add(num_keypoints1, inliers);
 }
+
+ContextDisambiguator::~ContextDisambiguator() = default;
 
 void ContextDisambiguator::Prepare(const ImagePair& pair) {
   for (const ImageId id : {pair.image_id1, pair.image_id2}) {
@@ -152,28 +183,45 @@ void ContextDisambiguator::Prepare(const ImagePair& pair) {
 
 BridgeEvidence ContextDisambiguator::Evaluate(const ImagePair& pair) {
   Prepare(pair);
-  return Measure(database_, pair, &scratch_);
-}
-
-BridgeEvidence ContextDisambiguator::Measure(
-    const Database& database, const ImagePair& pair,
-    CoverageGrid::Scratch* scratch) const {
   // Oriented as stored: the smaller id first.
   const ImagePair p(pair.image_id1, pair.image_id2);
   return MeasureInliers(pair,
-                        database.ReadInlierMatches(p.image_id1, p.image_id2),
-                        scratch);
+                        database_.ReadInlierMatches(p.image_id1, p.image_id2));
 }
 
-BridgeEvidence ContextDisambiguator::MeasureInliers(
-    const ImagePair& pair, const std::vector<FeatureMatch>& inliers,
-    CoverageGrid::Scratch* scratch) const {
+BridgeEvidence ContextDisambiguator::MeasureInliers(const ImagePair& pair,
+                                                    FeatureMatchSpan inliers) {
+  const ImagePair p(pair.image_id1, pair.image_id2);
+  std::optional<DistinctiveSupport> support;
+  if (options_.min_distinctive_ratio > 0 && !inliers.empty()) {
+    support = tracks_->Support(p, inliers);
+  }
+  return Combine(
+      pair, static_cast<uint32_t>(inliers.size()),
+      grid_.CoveredCells(p.image_id1, inliers, true, &scratch_),
+      grid_.CoveredCells(p.image_id2, inliers, false, &scratch_), support);
+}
+
+BridgeEvidence ContextDisambiguator::MeasureRecord(const ImagePair& pair,
+                                                   const ScanRecord& r) {
+  const ImagePair p(pair.image_id1, pair.image_id2);
+  std::optional<DistinctiveSupport> support;
+  if (options_.min_distinctive_ratio > 0 && r.num_inliers > 0) {
+    support = tracks_->Support(p, r.num_inliers, bridge_keypoints_,
+                               r.keypoints);
+  }
+  return Combine(pair, r.num_inliers, r.cells1, r.cells2, support);
+}
+
+BridgeEvidence ContextDisambiguator::Combine(
+    const ImagePair& pair, uint32_t num_inliers, int cells1, int cells2,
+    const std::optional<DistinctiveSupport>& support) const {
   BridgeEvidence ev;
   ev.pair = pair;
   const ImagePair p(pair.image_id1, pair.image_id2);
-  ev.num_inliers = static_cast<uint32_t>(inliers.size());
-  ev.cells1 = grid_.CoveredCells(p.image_id1, inliers, true, scratch);
-  ev.cells2 = grid_.CoveredCells(p.image_id2, inliers, false, scratch);
+  ev.num_inliers = num_inliers;
+  ev.cells1 = cells1;
+  ev.cells2 = cells2;
   ev.reference1 = cache_.at(p.image_id1).bridge_reference;
   ev.reference2 = cache_.at(p.image_id2).bridge_reference;
   ev.relative1 = std::min(1.0, ev.cells1 / ev.reference1);
@@ -181,8 +229,8 @@ BridgeEvidence ContextDisambiguator::MeasureInliers(
   ev.relative = std::min(ev.relative1, ev.relative2);
   ev.coverage_score =
       std::min(1.0, ev.relative / (2.0 * options_.min_relative_coverage));
-  if (options_.min_distinctive_ratio > 0 && ev.num_inliers > 0) {
-    const DistinctiveSupport s = tracks_->Support(p, inliers);
+  if (support) {
+    const DistinctiveSupport& s = *support;
     ev.num_distinctive = s.num_distinctive;
     ev.image_distinctive_fraction = s.image_fraction;
     ev.distinctive_p_value = s.p_value;
@@ -210,107 +258,29 @@ const std::vector<ImagePair>& ContextDisambiguator::Bridges() {
   return *bridges_;
 }
 
-void ContextDisambiguator::MeasureAllBridges() {
-  bulk_done_ = true;
-  const Timer timer;
+size_t ContextDisambiguator::BridgeIndex(const ImagePair& pair) {
   const std::vector<ImagePair>& bridges = Bridges();
-  for (const ImagePair& p : bridges) Prepare(p);
-  // Thread w scans its own range of pair ids.
-  std::vector<std::vector<std::pair<PairId, double>>> parts(
-      std::min<size_t>(options_.num_threads,
-                       std::max<size_t>(1, bridges.size())));
-  RunOnThreads(parts.size(), [&](size_t w, const Database& database,
-                                 CoverageGrid::Scratch* scratch) {
-    const size_t begin = w * bridges.size() / parts.size();
-    const size_t end = (w + 1) * bridges.size() / parts.size();
-    database.ForEachInlierMatches(
-        std::vector<ImagePair>(bridges.begin() + begin, bridges.begin() + end),
-        [&](const ImagePair& pair, const std::vector<FeatureMatch>& inliers) {
-          parts[w].push_back(
-              {ImagePairToPairId(pair.image_id1, pair.image_id2),
-               MeasureInliers(pair, inliers, scratch).score});
-        });
-  });
-  bulk_scores_.clear();
-  for (const auto& part : parts) {
-    bulk_scores_.insert(bulk_scores_.end(), part.begin(), part.end());
-  }
-  // (In order already: the graph's edges are sorted by pair.)
-  if (!std::is_sorted(bulk_scores_.begin(), bulk_scores_.end())) {
-    std::sort(bulk_scores_.begin(), bulk_scores_.end());
-  }
-  HISFM_LOG_DEBUG("builtin verifier: measured all {} bridges at once "
-                  "({:.2f} s)",
-                  bridges.size(), timer.ElapsedSeconds());
-}
-
-void ContextDisambiguator::RunOnThreads(
-    size_t num_threads,
-    const std::function<void(size_t, const Database&, CoverageGrid::Scratch*)>&
-        fn) {
-  while (workers_.size() + 1 < num_threads) {
-    workers_.push_back(std::make_unique<Worker>(database_.path()));
-  }
-  ParallelFor(num_threads, static_cast<int>(num_threads), [&](size_t w) {
-    if (w == 0) {
-      fn(0, database_, &scratch_);
-    } else {
-      fn(w, workers_[w - 1]->database, &workers_[w - 1]->scratch);
-    }
-  });
+  const ImagePair p(pair.image_id1, pair.image_id2);
+  auto it = std::lower_bound(bridges.begin(), bridges.end(), p);
+  return it != bridges.end() && *it == p ? it - bridges.begin()
+                                         : bridges.size();
 }
 
 std::vector<double> ContextDisambiguator::Score(
     const std::vector<ImagePair>& pairs) {
-  num_requested_ += pairs.size();
-  if (!bulk_done_ && options_.bulk_after_fraction > 0 &&
-      options_.bulk_after_fraction < 1 &&
-      num_requested_ >= static_cast<size_t>(options_.bulk_min_bridges)) {
-    if (num_requested_ > options_.bulk_after_fraction * Bridges().size()) {
-      MeasureAllBridges();
-    }
-  }
-  std::vector<double> scores(pairs.size(), -1.0);
-  std::vector<ImagePair> todo;
-  std::vector<size_t> todo_index;
-  for (size_t i = 0; i < pairs.size(); ++i) {
-    const PairId id =
-        ImagePairToPairId(pairs[i].image_id1, pairs[i].image_id2);
-    auto it = std::lower_bound(
-        bulk_scores_.begin(), bulk_scores_.end(), id,
-        [](const std::pair<PairId, double>& a, PairId b) {
-          return a.first < b;
-        });
-    if (it != bulk_scores_.end() && it->first == id) {
-      scores[i] = it->second;
+  std::vector<double> scores;
+  scores.reserve(pairs.size());
+  for (const ImagePair& pair : pairs) {
+    Prepare(pair);
+    const size_t k = BridgeIndex(pair);
+    if (k < records_.size() && records_[k].recorded) {
+      ++num_scored_from_scan_;
+      scores.push_back(MeasureRecord(pair, records_[k]).score);
     } else {
-      todo.push_back(pairs[i]);
-      todo_index.push_back(i);
+      ++num_scored_by_reading_;
+      scores.push_back(Evaluate(pair).score);
     }
   }
-  if (!todo.empty()) {
-    const std::vector<double> measured = MeasureLazily(todo);
-    for (size_t k = 0; k < todo.size(); ++k) {
-      scores[todo_index[k]] = measured[k];
-    }
-  }
-  return scores;
-}
-
-std::vector<double> ContextDisambiguator::MeasureLazily(
-    const std::vector<ImagePair>& pairs) {
-  for (const ImagePair& p : pairs) Prepare(p);
-  std::vector<double> scores(pairs.size());
-  const size_t num_threads = std::max<size_t>(
-      1, std::min<size_t>(options_.num_threads, pairs.size()));
-  // Thread w measures pairs [w n / T, (w + 1) n / T).
-  RunOnThreads(num_threads, [&](size_t w, const Database& database,
-                                CoverageGrid::Scratch* scratch) {
-    for (size_t i = w * pairs.size() / num_threads;
-         i < (w + 1) * pairs.size() / num_threads; ++i) {
-      scores[i] = Measure(database, pairs[i], scratch).score;
-    }
-  });
   return scores;
 }
 

@@ -96,34 +96,13 @@ struct DisambiguatorOptions {
   /// distinctive inliers is significant at this level (Poisson tail,
   /// DistinctiveSupport::p_value); otherwise it is silent (score 1).
   double distinctive_significance = 0.01;
-  /// Threads measuring a batch of bridges (each reads the database through
-  /// its own connection); 1 = score one bridge at a time (until the bulk
-  /// measurement below takes over). With more
-  /// than one, the disambiguator asks the skeleton builder for batches of up
-  /// to 256 (BridgeScorer::PreferredBatchSize); the builder sizes each
-  /// batch by the run of rejections it is in, and verifies ahead the
-  /// bridges Kruskal would meet next. The decisions are the same, but more
-  /// bridges are verified (cup: 40 instead of 35; the 300-image dense
-  /// synthetic street: 12.1k instead of 9.8k). The bulk measurement below
-  /// uses the threads too, each scanning its own range of pairs. On 2
-  /// cores it gains nothing there (a scan already reads on a second
-  /// thread), and before the bulk measurement took over, 2 threads cut the
-  /// 5,000-image dense street's verification from 7.2 s to 4.1-5.1 s.
-  int num_threads = 1;
-  /// Once Kruskal has asked for more bridges than this fraction of all the
-  /// graph's bridges (and for at least bulk_min_bridges), every bridge is
-  /// measured in one sequential read of their inliers, in pair-id order,
-  /// and later requests are answered from those measurements. The scores
-  /// are the same, and so are the decisions and the count of verified
-  /// bridges (what Kruskal asked for); only the reading changes, from one
-  /// b-tree lookup per bridge to one scan. Scenes whose heavy bridges are
-  /// mostly doppelgangers make Kruskal ask for most bridges: 86% on the
-  /// densely matched 5,000-image synthetic street, where the scan measures
-  /// all 948k bridges in 2.0 s against about 4 s for the 894k asked for one
-  /// by one. 0 disables; 1 never triggers.
-  double bulk_after_fraction = 0.05;
-  /// See bulk_after_fraction: small scenes stay lazy.
-  int bulk_min_bridges = 4096;
+  /// Memory for what the tracks' read records of every bridge (coverage
+  /// cell counts and the keypoints its inliers use, keypoint_multisets.h),
+  /// in MiB. With it a bridge is scored without reading its inliers again;
+  /// the bridges beyond the budget are read one by one when Kruskal asks
+  /// for them. About 110 MB on the densely matched 5,000-image synthetic
+  /// street (948k bridges).
+  int max_scan_memory_mb = 1024;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -162,14 +141,16 @@ struct BridgeEvidence {
 };
 
 /// The built-in BridgeScorer (Name() "builtin"). Per-image work (keypoint
-/// cells, reference coverage) is computed once and cached, and the tracks of
-/// the whole graph are joined once, at the first bridge (one read of every
-/// pair's inliers, in pair-id order); a bridge then costs one read of its
-/// inlier matches (about 5 microseconds on the densely matched 5,000-image
-/// synthetic street, whose pairs hold ~350 inliers), until Kruskal has
-/// asked for bulk_after_fraction of the bridges: then all of them are
-/// measured in one scan (about 2 microseconds each there). The
-/// disambiguator holds a read transaction on the database while it lives.
+/// cells, reference coverage) is computed once and cached. At the first
+/// bridge the tracks of the whole graph are joined (one read of every
+/// pair's inliers, in pair-id order), and the same read records each
+/// bridge's coverage cells and the keypoints its inliers use
+/// (max_scan_memory_mb); from then on a bridge's score costs no read and
+/// about a microsecond, however many bridges Kruskal asks for (86% of them
+/// on the densely matched 5,000-image synthetic street, whose heavy bridges
+/// are mostly doppelgangers). The scores equal those computed from the
+/// bridge's inliers (Evaluate). The disambiguator holds a read transaction
+/// on the database while it lives.
 class ContextDisambiguator : public BridgeScorer {
  public:
   /// The database, graph and communities must outlive the disambiguator.
@@ -185,18 +166,19 @@ class ContextDisambiguator : public BridgeScorer {
 
   std::string Name() const override { return "builtin"; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
-  /// 1 with one thread, else 256 bridges per batch.
-  size_t PreferredBatchSize() const override;
 
-  /// Measures one pair (any two images with a stored two-view geometry;
-  /// throws hisfm::Error if the pair is not in the database).
+  /// Measures one pair from its inliers, read from the database (any two
+  /// images with a stored two-view geometry; throws hisfm::Error if the
+  /// pair is not in the database).
   BridgeEvidence Evaluate(const ImagePair& pair);
 
   /// Reference cell count of an image (cached).
   double ReferenceCells(ImageId image_id);
 
-  /// Bridges measured by the bulk scan (0 until it ran).
-  size_t NumBulkMeasured() const { return bulk_scores_.size(); }
+  /// Bridges scored from what the tracks' read recorded, and bridges whose
+  /// inliers were read to score them.
+  size_t NumScoredFromScan() const { return num_scored_from_scan_; }
+  size_t NumScoredByReading() const { return num_scored_by_reading_; }
 
  private:
   struct ImageCache {
@@ -207,35 +189,39 @@ class ContextDisambiguator : public BridgeScorer {
     // 1), set by Prepare; 0 until then.
     double bridge_reference = 0;
   };
-  // One thread's reading connection and scratch.
-  struct Worker;
+  // What the tracks' read recorded of one bridge.
+  struct ScanRecord {
+    bool recorded = false;
+    uint32_t num_inliers = 0;
+    int cells1 = 0;
+    int cells2 = 0;
+    // The keypoints of image_id1 its inliers use: entry of bridge_keypoints_.
+    size_t keypoints = 0;
+  };
 
   double SceneReferenceFraction();
   const TrackConsistency& Tracks();
   // Computes (serially) the per-image data a bridge of `pair` needs.
   void Prepare(const ImagePair& pair);
-  // Scores pairs one by one, or in parallel batches (num_threads).
-  std::vector<double> MeasureLazily(const std::vector<ImagePair>& pairs);
-  // Runs fn(w, database, scratch) for w = 0 .. num_threads - 1 at once, w = 0
-  // on this thread with the caller's connection and the others on worker
-  // threads with their own; rethrows the first error.
-  void RunOnThreads(
-      size_t num_threads,
-      const std::function<void(size_t, const Database&,
-                               CoverageGrid::Scratch*)>& fn);
   // The graph's edges across communities, in pair-id order (cached).
   const std::vector<ImagePair>& Bridges();
-  // Measures every bridge of the graph in one sequential read
-  // (bulk_after_fraction).
-  void MeasureAllBridges();
+  // Index of `pair` in Bridges(), or Bridges().size().
+  size_t BridgeIndex(const ImagePair& pair);
+  // Records a bridge's cells and keypoints during the tracks' read.
+  void Record(size_t bridge, size_t num_keypoints1, FeatureMatchSpan inliers,
+              CoverageGrid::Scratch* scratch);
   // Measures a prepared pair from its inlier matches (oriented as stored).
   BridgeEvidence MeasureInliers(const ImagePair& pair,
-                                const std::vector<FeatureMatch>& inliers,
-                                CoverageGrid::Scratch* scratch) const;
-  // Measures a prepared pair; reads through `database`; const, so several
-  // threads may measure at once.
-  BridgeEvidence Measure(const Database& database, const ImagePair& pair,
-                         CoverageGrid::Scratch* scratch) const;
+                                FeatureMatchSpan inliers);
+  // Measures a prepared bridge from its record.
+  BridgeEvidence MeasureRecord(const ImagePair& pair, const ScanRecord& r);
+  // The evidence of a prepared pair (oriented as stored) from its inlier
+  // and cell counts and, if the distinctive cue is on and it has inliers,
+  // its distinctive support.
+  BridgeEvidence Combine(const ImagePair& pair, uint32_t num_inliers,
+                         int cells1, int cells2,
+                         const std::optional<DistinctiveSupport>& support)
+      const;
 
   const Database& database_;
   const ViewGraph& graph_;
@@ -248,15 +234,13 @@ class ContextDisambiguator : public BridgeScorer {
   // One read transaction for all the reads of the disambiguator's lifetime.
   Database::ReadScope read_scope_;
   CoverageGrid::Scratch scratch_;
-  // Threads beyond the caller's, created at the first parallel batch.
-  std::vector<std::unique_ptr<Worker>> workers_;
-  // Pairs asked for through Score (bridges or not), and the bulk
-  // measurements, sorted by pair id.
-  size_t num_requested_ = 0;
-  bool bulk_done_ = false;
   // The graph's bridges, listed when first needed.
   std::optional<std::vector<ImagePair>> bridges_;
-  std::vector<std::pair<PairId, double>> bulk_scores_;
+  // By bridge index: what the tracks' read recorded.
+  std::vector<ScanRecord> records_;
+  KeypointMultisets bridge_keypoints_;
+  size_t num_scored_from_scan_ = 0;
+  size_t num_scored_by_reading_ = 0;
 };
 
 }  // namespace hisfm

@@ -62,8 +62,29 @@ const CoverageGrid::ImageCells& CoverageGrid::Cells(ImageId image_id) {
 }
 
 int CoverageGrid::CountCells(const ImageCells& c,
-                             const std::vector<FeatureMatch>& matches,
+                             FeatureMatchSpan matches,
                              bool first, Scratch* scratch) {
+  const size_t n = c.cell_of_keypoint.size();
+  if (c.num_cells <= 128) {
+    // Few cells (the default grid has at most 100): a bit per cell, in two
+    // registers (a mask in memory would make each match wait for the last).
+    const int* cell_of = c.cell_of_keypoint.data();
+    uint64_t low = 0, high = 0;
+    auto add = [&](Point2DIdx idx) {
+      if (idx >= n) return;
+      const uint32_t cell = static_cast<uint32_t>(cell_of[idx]);
+      const uint64_t bit = uint64_t{1} << (cell & 63);
+      const uint64_t is_high = uint64_t{0} - (cell >> 6);
+      low |= bit & ~is_high;
+      high |= bit & is_high;
+    };
+    if (first) {
+      for (const FeatureMatch& m : matches) add(m.idx1);
+    } else {
+      for (const FeatureMatch& m : matches) add(m.idx2);
+    }
+    return __builtin_popcountll(low) + __builtin_popcountll(high);
+  }
   // Distinct cells counted with a stamp per cell: no sort, no clearing.
   std::vector<uint32_t>& stamp = scratch->stamp;
   if (stamp.size() < static_cast<size_t>(c.num_cells)) {
@@ -75,7 +96,6 @@ int CoverageGrid::CountCells(const ImageCells& c,
   }
   const uint32_t current = scratch->current;
   int count = 0;
-  const size_t n = c.cell_of_keypoint.size();
   for (const FeatureMatch& m : matches) {
     const Point2DIdx idx = first ? m.idx1 : m.idx2;
     if (idx >= n) continue;
@@ -89,13 +109,13 @@ int CoverageGrid::CountCells(const ImageCells& c,
 }
 
 int CoverageGrid::CoveredCells(ImageId image_id,
-                               const std::vector<FeatureMatch>& matches,
+                               FeatureMatchSpan matches,
                                bool first) {
   return CountCells(Cells(image_id), matches, first, &scratch_);
 }
 
 int CoverageGrid::CoveredCells(ImageId image_id,
-                               const std::vector<FeatureMatch>& matches,
+                               FeatureMatchSpan matches,
                                bool first, Scratch* scratch) const {
   auto it = cells_.find(image_id);
   if (it == cells_.end()) {

@@ -23,8 +23,7 @@ class CoverageGrid {
   /// Number of distinct cells holding the keypoints of `image_id` that the
   /// matches index (idx1 if `first`, else idx2). Out-of-range indices are
   /// ignored.
-  int CoveredCells(ImageId image_id, const std::vector<FeatureMatch>& matches,
-                   bool first);
+  int CoveredCells(ImageId image_id, FeatureMatchSpan matches, bool first);
   /// Cells of an image holding any keypoint.
   int TexturedCells(ImageId image_id);
 
@@ -38,8 +37,8 @@ class CoverageGrid {
   void Load(ImageId image_id) { Cells(image_id); }
   /// As CoveredCells above, for an image already loaded (throws otherwise);
   /// safe to call from several threads at once, each with its own scratch.
-  int CoveredCells(ImageId image_id, const std::vector<FeatureMatch>& matches,
-                   bool first, Scratch* scratch) const;
+  int CoveredCells(ImageId image_id, FeatureMatchSpan matches, bool first,
+                   Scratch* scratch) const;
 
  private:
   struct ImageCells {
@@ -55,7 +54,7 @@ class CoverageGrid {
   std::unordered_map<ImageId, CameraId> camera_of_image_;
   std::unordered_map<ImageId, ImageCells> cells_;
   static int CountCells(const ImageCells& cells,
-                        const std::vector<FeatureMatch>& matches, bool first,
+                        FeatureMatchSpan matches, bool first,
                         Scratch* scratch);
   // Scratch of the non-const CoveredCells.
   Scratch scratch_;

@@ -31,7 +31,24 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   Timer timer;
   PairFilterResult result;
   const Database::ReadScope read_scope(database);
-  const TrackConsistency tracks(database, graph);
+  // The tracks' read also keeps each pair's keypoints in its first image,
+  // for test A without reading the inliers again. In edge order: the reads
+  // come in pair-id order, and the tracks fail if a pair has no two-view
+  // geometry.
+  const std::unordered_map<ImageId, size_t> num_keypoints =
+      database.ReadNumKeypoints();
+  KeypointMultisets first_keypoints;
+  std::vector<uint32_t> num_inliers;
+  num_inliers.reserve(graph.NumEdges());
+  const TrackConsistency tracks(
+      database, graph, [&](const ImagePair& pair, FeatureMatchSpan inliers) {
+        auto it = num_keypoints.find(pair.image_id1);
+        first_keypoints.Add(it == num_keypoints.end() ? 0 : it->second,
+                            inliers);
+        num_inliers.push_back(static_cast<uint32_t>(inliers.size()));
+      });
+  ThrowUnless(num_inliers.size() == graph.NumEdges(),
+              "pair filter: the tracks' read missed pairs");
   result.inconsistent_track_fraction = tracks.InconsistentFraction();
   HISFM_LOG_DEBUG("pair filter: tracks of {} pairs ({:.2f} s)",
                   graph.NumEdges(), timer.ElapsedSeconds());
@@ -40,15 +57,12 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   std::vector<ViewGraphEdge> kept_a;
   // Distinctive inliers of each pair kept by A: ranks third views for B.
   std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
-  // In edge order: the reads come in pair-id order, and the tracks above
-  // already failed if a pair had no two-view geometry.
   std::vector<DistinctiveSupport> support;
   support.reserve(graph.NumEdges());
-  database.ForEachInlierMatches(
-      graph.Pairs(), [&](const ImagePair& pair,
-                         const std::vector<FeatureMatch>& inliers) {
-        support.push_back(tracks.Support(pair, inliers));
-      });
+  for (size_t i = 0; i < graph.NumEdges(); ++i) {
+    support.push_back(tracks.Support(graph.Edges()[i].pair, num_inliers[i],
+                                     first_keypoints, i));
+  }
   for (size_t i = 0; i < graph.NumEdges(); ++i) {
     const ViewGraphEdge& e = graph.Edges()[i];
     const DistinctiveSupport& s = support.at(i);

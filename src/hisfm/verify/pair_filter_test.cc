@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/error.h"
@@ -60,12 +59,8 @@ TEST(FilterAmbiguousPairs, KeepsOnlyTruePairsOfARepeatedStreet) {
     const StreetOutcome before = Count(scene, graph);
     ASSERT_GT(before.false_kept, 2 * before.true_pairs);  // a hard scene
 
-    const auto start = std::chrono::steady_clock::now();
     const PairFilterResult result =
         FilterAmbiguousPairs(db, graph, PairFilterOptions());
-    const double seconds = std::chrono::duration<double>(
-                               std::chrono::steady_clock::now() - start)
-                               .count();
     const StreetOutcome after = Count(scene, result.graph);
     EXPECT_EQ(after.false_kept, 0u) << "seed " << seed;
     EXPECT_EQ(after.true_kept, before.true_pairs) << "seed " << seed;
@@ -87,8 +82,6 @@ TEST(FilterAmbiguousPairs, KeepsOnlyTruePairsOfARepeatedStreet) {
     EXPECT_EQ(summary["pairs_before"], graph.NumEdges());
     EXPECT_EQ(summary["pairs_after"], result.graph.NumEdges());
     EXPECT_EQ(summary["removed_three_view"], result.num_removed_three_view);
-    // Well under 50 ms per pair.
-    EXPECT_LT(seconds / graph.NumEdges(), 0.05);
 
     // Without the three-view test, mixed pairs (true ground, false facades)
     // survive: both tests are needed.

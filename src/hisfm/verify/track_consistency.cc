@@ -9,8 +9,9 @@
 
 namespace hisfm {
 
-TrackConsistency::TrackConsistency(const Database& database,
-                                   const ViewGraph& graph) {
+TrackConsistency::TrackConsistency(
+    const Database& database, const ViewGraph& graph,
+    const std::function<void(const ImagePair&, FeatureMatchSpan)>& observe) {
   // Keypoints of all graph images, indexed densely.
   const std::unordered_map<ImageId, size_t> num_keypoints =
       database.ReadNumKeypoints();
@@ -29,7 +30,7 @@ TrackConsistency::TrackConsistency(const Database& database,
   size_t num_read = 0;
   database.ForEachInlierMatches(
       graph.Pairs(), [&](const ImagePair& pair,
-                         const std::vector<FeatureMatch>& inliers) {
+                         FeatureMatchSpan inliers) {
         ++num_read;
         const ImageState& s1 = images_.at(pair.image_id1);
         const ImageState& s2 = images_.at(pair.image_id2);
@@ -42,7 +43,8 @@ TrackConsistency::TrackConsistency(const Database& database,
           state_[a] = state_[b] = kDistinctive;
           tracks.Union(a, b);
         }
-      });
+      },
+      observe);
   if (num_read != graph.NumEdges()) {
     throw Error(StrCat("track consistency: ", graph.NumEdges() - num_read,
                        " pair(s) of the view graph have no two-view geometry "
@@ -69,11 +71,20 @@ TrackConsistency::TrackConsistency(const Database& database,
       state_[k] = kRepeated;
     }
   }
+  size_t num_words = 0;
+  for (auto& [id, s] : images_) {
+    s.word_offset = num_words;
+    num_words += (s.num_keypoints + 63) / 64;
+  }
+  distinctive_bits_.assign(num_words, 0);
   for (auto& [id, s] : images_) {
     for (size_t k = 0; k < s.num_keypoints; ++k) {
       const uint8_t st = state_[s.offset + k];
       s.num_matched += st != kUnmatched;
       s.num_distinctive += st == kDistinctive;
+      if (st == kDistinctive) {
+        distinctive_bits_[s.word_offset + k / 64] |= uint64_t{1} << (k % 64);
+      }
     }
     num_matched_ += s.num_matched;
     num_repeated_ += s.num_matched - s.num_distinctive;
@@ -141,17 +152,40 @@ DistinctiveSupport TrackConsistency::Support(
 }
 
 DistinctiveSupport TrackConsistency::Support(
-    const ImagePair& pair, const std::vector<FeatureMatch>& inliers) const {
-  DistinctiveSupport s;
-  s.num_inliers = static_cast<uint32_t>(inliers.size());
+    const ImagePair& pair, FeatureMatchSpan inliers) const {
+  uint32_t num_distinctive = 0;
   auto it = images_.find(pair.image_id1);
   if (it != images_.end()) {
     const uint8_t* state = state_.data() + it->second.offset;
     const size_t n = it->second.num_keypoints;
     for (const FeatureMatch& m : inliers) {
-      s.num_distinctive += m.idx1 < n && state[m.idx1] == kDistinctive;
+      num_distinctive += m.idx1 < n && state[m.idx1] == kDistinctive;
     }
   }
+  return SupportFromCount(pair, static_cast<uint32_t>(inliers.size()),
+                          num_distinctive);
+}
+
+DistinctiveSupport TrackConsistency::Support(const ImagePair& pair,
+                                             uint32_t num_inliers,
+                                             const KeypointMultisets& keypoints,
+                                             size_t k) const {
+  uint32_t num_distinctive = 0;
+  auto it = images_.find(pair.image_id1);
+  if (it != images_.end()) {
+    num_distinctive = static_cast<uint32_t>(
+        keypoints.CountIn(k, distinctive_bits_.data() + it->second.word_offset,
+                          (it->second.num_keypoints + 63) / 64));
+  }
+  return SupportFromCount(pair, num_inliers, num_distinctive);
+}
+
+DistinctiveSupport TrackConsistency::SupportFromCount(
+    const ImagePair& pair, uint32_t num_inliers,
+    uint32_t num_distinctive) const {
+  DistinctiveSupport s;
+  s.num_inliers = num_inliers;
+  s.num_distinctive = num_distinctive;
   s.image_fraction = std::min(DistinctiveFraction(pair.image_id1),
                               DistinctiveFraction(pair.image_id2));
   s.expected = s.image_fraction * s.num_inliers;

@@ -30,11 +30,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/io/database.h"
+#include "hisfm/verify/keypoint_multisets.h"
 
 namespace hisfm {
 
@@ -70,7 +72,14 @@ class TrackConsistency {
   /// `database`) into tracks and marks the keypoints of inconsistent tracks.
   /// Costs one read of every edge's inliers (in pair-id order, in one read
   /// transaction) and near-linear time in the number of inlier matches.
-  TrackConsistency(const Database& database, const ViewGraph& graph);
+  /// `observe`, if set, is also called with every edge's inliers (oriented
+  /// as stored) during that read, for callers that need more of them: on
+  /// the reading thread (Database::ForEachInlierMatches' on_read), so it
+  /// must not use this TrackConsistency.
+  TrackConsistency(
+      const Database& database, const ViewGraph& graph,
+      const std::function<void(const ImagePair&, FeatureMatchSpan)>& observe =
+          nullptr);
 
   /// True if keypoint `idx` of the image has an inlier match in some edge.
   bool IsMatched(ImageId image_id, uint32_t idx) const;
@@ -110,7 +119,13 @@ class TrackConsistency {
   /// Same for inlier matches oriented like `pair` (idx1 indexes
   /// pair.image_id1).
   DistinctiveSupport Support(const ImagePair& pair,
-                             const std::vector<FeatureMatch>& inliers) const;
+                             FeatureMatchSpan inliers) const;
+  /// Same for a pair with `num_inliers` inliers whose keypoints in
+  /// pair.image_id1 are multiset `k` of `keypoints` (the same count
+  /// without the inliers themselves).
+  DistinctiveSupport Support(const ImagePair& pair, uint32_t num_inliers,
+                             const KeypointMultisets& keypoints,
+                             size_t k) const;
 
  private:
   struct ImageState {
@@ -118,11 +133,20 @@ class TrackConsistency {
     size_t num_keypoints = 0;
     size_t num_matched = 0;
     size_t num_distinctive = 0;
+    // The image's words in distinctive_bits_.
+    size_t word_offset = 0;
   };
   uint8_t State(ImageId image_id, uint32_t idx) const;
+  // The support of `num_distinctive` distinctive inliers out of
+  // `num_inliers`.
+  DistinctiveSupport SupportFromCount(const ImagePair& pair,
+                                      uint32_t num_inliers,
+                                      uint32_t num_distinctive) const;
 
   std::unordered_map<ImageId, ImageState> images_;
   std::vector<uint8_t> state_;
+  // Bit k of an image's words: its keypoint k is distinctive.
+  std::vector<uint64_t> distinctive_bits_;
   size_t num_matched_ = 0;
   size_t num_repeated_ = 0;
 };

@@ -113,7 +113,25 @@ TEST(TrackConsistency, RandomGraphsAgreeWithTheDefinition) {
       writer.Close();
     }
     Database db(dir / "database.db");
-    const TrackConsistency tracks(db, ViewGraph::FromDatabase(db, 1));
+    // The read also hands every pair to the observer: its keypoints in the
+    // first image are kept for Support without the inliers.
+    KeypointMultisets first_keypoints;
+    std::map<ImagePair, size_t> multiset_of;
+    const TrackConsistency tracks(
+        db, ViewGraph::FromDatabase(db, 1),
+        [&](const ImagePair& pair, FeatureMatchSpan inliers) {
+          multiset_of[pair] = first_keypoints.Add(num_keypoints, inliers);
+        });
+    ASSERT_EQ(multiset_of.size(), pairs.size());
+    for (const auto& [pair, matches] : pairs) {
+      const DistinctiveSupport direct = tracks.Support(pair, matches);
+      const DistinctiveSupport kept =
+          tracks.Support(pair, static_cast<uint32_t>(matches.size()),
+                         first_keypoints, multiset_of.at(pair));
+      EXPECT_EQ(kept.num_inliers, direct.num_inliers);
+      EXPECT_EQ(kept.num_distinctive, direct.num_distinctive);
+      EXPECT_DOUBLE_EQ(kept.p_value, direct.p_value);
+    }
     // Slow: label keypoints by track, then collect each track's images.
     auto node = [&](ImageId id, uint32_t k) {
       return static_cast<size_t>(id - 1) * num_keypoints + k;
