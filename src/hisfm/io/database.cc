@@ -494,8 +494,10 @@ void Database::ForEachInlierMatches(
       MatchChunk chunk;
       {
         std::unique_lock<std::mutex> lock(mutex);
-        changed.wait(lock, [&] { return done || !queue.empty(); });
-        if (queue.empty()) break;
+        changed.wait(lock,
+                     [&] { return done || error || !queue.empty(); });
+        // A failed read stops here, without handing on what it queued.
+        if (error || queue.empty()) break;
         chunk = std::move(queue.front());
         queue.pop_front();
         changed.notify_all();

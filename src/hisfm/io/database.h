@@ -64,16 +64,24 @@ struct FeatureMatch {
 /// long as the storage it views (for a callback argument, during the call).
 class FeatureMatchSpan {
  public:
+  /// An empty span.
   FeatureMatchSpan() = default;
+  /// The `size` matches from `data`.
   FeatureMatchSpan(const FeatureMatch* data, size_t size)
       : data_(data), size_(size) {}
-  /// Views a whole vector (implicit, so vectors pass where spans are taken).
+  /// Views a whole vector (implicit, so vectors pass where spans are taken;
+  /// a span of a temporary vector lives only until the end of the
+  /// expression that made it).
   FeatureMatchSpan(const std::vector<FeatureMatch>& matches)  // NOLINT
       : data_(matches.data()), size_(matches.size()) {}
+  /// First match, and one past the last.
   const FeatureMatch* begin() const { return data_; }
   const FeatureMatch* end() const { return data_ + size_; }
+  /// Match i (i < size()).
   const FeatureMatch& operator[](size_t i) const { return data_[i]; }
+  /// Number of matches.
   size_t size() const { return size_; }
+  /// True if there are none.
   bool empty() const { return size_ == 0; }
 
  private:
@@ -141,7 +149,7 @@ class Database {
   /// Every verified pair with at least `min_num_inliers` inliers, sorted by
   /// pair. Reads only the pair id and row count, but rows of a few hundred
   /// inliers fill a page each, so this scans the whole table: two threads
-  /// (two read-only connections) read the two halves of the pair-id range.
+  /// (two read-only connections) take turns at 64 chunks of first image ids.
   std::vector<VerifiedPair> ReadVerifiedPairs(uint32_t min_num_inliers) const;
   /// The full two-view geometry of a pair; throws if the pair is absent.
   TwoViewGeometry ReadTwoViewGeometry(ImageId a, ImageId b) const;

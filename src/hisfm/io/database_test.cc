@@ -206,6 +206,35 @@ TEST(Database, BulkReadsOfManyPairsReadAhead) {
                    }),
                Error);
   EXPECT_EQ(num_calls, 3000u);
+  // on_read sees every pair as it is read, in the same order and with the
+  // same matches as fn, on the reading thread; an exception it throws there
+  // stops the read and reaches the caller.
+  std::vector<PairId> read_order;
+  size_t num_mismatches = 0;
+  db.ForEachInlierMatches(
+      requested, [](const ImagePair&, FeatureMatchSpan) {},
+      [&](const ImagePair& pair, FeatureMatchSpan matches) {
+        read_order.push_back(ImagePairToPairId(pair.image_id1, pair.image_id2));
+        num_mismatches +=
+            matches.size() != 15 + (pair.image_id1 * pair.image_id2) % 7;
+        for (size_t k = 0; k < matches.size(); ++k) {
+          num_mismatches += matches[k].idx1 != k || matches[k].idx2 != k + 1;
+        }
+      });
+  EXPECT_EQ(read_order, visited);
+  EXPECT_EQ(num_mismatches, 0u);
+  num_calls = 0;
+  size_t num_read = 0;
+  EXPECT_THROW(db.ForEachInlierMatches(
+                   requested, [&](const ImagePair&, FeatureMatchSpan) {
+                     ++num_calls;
+                   },
+                   [&](const ImagePair&, FeatureMatchSpan) {
+                     if (++num_read == 3000) throw Error("stop reading");
+                   }),
+               Error);
+  EXPECT_EQ(num_read, 3000u);
+  EXPECT_LT(num_calls, 3000u);
   // At the first pair, while the reader is still filling its queue.
   num_calls = 0;
   EXPECT_THROW(db.ForEachInlierMatches(

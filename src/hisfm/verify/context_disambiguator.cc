@@ -50,8 +50,11 @@ ContextDisambiguator::ContextDisambiguator(const Database& database,
 
 ContextDisambiguator::ContextDisambiguator(const VerifierContext& context,
                                            const DisambiguatorOptions& options)
-    : ContextDisambiguator(*CheckedContext(context).database, *context.graph,
-                           *context.communities, options) {}
+    // (Each argument checks the whole context: their order of evaluation is
+    // unspecified.)
+    : ContextDisambiguator(*CheckedContext(context).database,
+                           *CheckedContext(context).graph,
+                           *CheckedContext(context).communities, options) {}
 
 double ContextDisambiguator::ReferenceCells(ImageId image_id) {
   ImageCache& c = cache_[image_id];
@@ -109,10 +112,35 @@ double ContextDisambiguator::SceneReferenceFraction() {
 }
 
 const TrackConsistency& ContextDisambiguator::Tracks() {
-  if (tracks_) return *tracks_;
+  if (!tracks_ && records_done_) {
+    tracks_ = std::make_unique<TrackConsistency>(database_, graph_);
+  } else if (!tracks_) {
+    // The read that joins the tracks also records the bridges.
+    RecordDuring([&](const PairObserver& observe) {
+      tracks_ = std::make_unique<TrackConsistency>(database_, graph_, observe);
+    });
+  }
+  return *tracks_;
+}
+
+void ContextDisambiguator::RecordBridges() {
+  if (records_done_) return;
+  if (options_.min_distinctive_ratio > 0) {
+    Tracks();
+  } else {
+    // Without the distinctive cue there are no tracks to join: a read of the
+    // bridges alone.
+    RecordDuring([&](const PairObserver& observe) {
+      database_.ForEachInlierMatches(
+          Bridges(), [](const ImagePair&, FeatureMatchSpan) {}, observe);
+    });
+  }
+}
+
+void ContextDisambiguator::RecordDuring(
+    const std::function<void(const PairObserver&)>& read) {
+  records_done_ = true;
   const Timer timer;
-  // The read that joins the tracks also records every bridge (both are in
-  // pair-id order), on the reading thread while this one joins the tracks.
   const std::vector<ImagePair>& bridges = Bridges();
   for (const ImagePair& p : bridges) {
     grid_.Load(p.image_id1);
@@ -121,34 +149,33 @@ const TrackConsistency& ContextDisambiguator::Tracks() {
   const std::unordered_map<ImageId, size_t> num_keypoints =
       database_.ReadNumKeypoints();
   records_.assign(bridges.size(), ScanRecord());
-  const size_t max_bytes =
-      static_cast<size_t>(options_.max_scan_memory_mb) << 20;
+  const double max_bytes = options_.max_scan_memory_mb * (1 << 20);
+  const size_t records_bytes = records_.size() * sizeof(ScanRecord);
+  bool full = false;
   size_t next = 0;
   CoverageGrid::Scratch scratch;
-  tracks_ = std::make_unique<TrackConsistency>(
-      database_, graph_,
-      [&](const ImagePair& pair, FeatureMatchSpan inliers) {
-        while (next < bridges.size() && bridges[next] < pair) ++next;
-        if (next == bridges.size() || !(bridges[next] == pair)) return;
-        if (bridge_keypoints_.Bytes() +
-                records_.size() * sizeof(ScanRecord) >=
-            max_bytes) {
-          return;
-        }
-        auto it = num_keypoints.find(pair.image_id1);
-        Record(next, it == num_keypoints.end() ? 0 : it->second, inliers,
-               &scratch);
-      });
+  // Runs on the reading thread; the reads come in pair-id order, as the
+  // bridges are listed.
+  read([&](const ImagePair& pair, FeatureMatchSpan inliers) {
+    while (next < bridges.size() && bridges[next] < pair) ++next;
+    if (full || next == bridges.size() || !(bridges[next] == pair)) return;
+    auto it = num_keypoints.find(pair.image_id1);
+    const size_t n1 = it == num_keypoints.end() ? 0 : it->second;
+    if (records_bytes + bridge_keypoints_.BytesAfterAdding(n1, inliers.size()) >
+        max_bytes) {
+      full = true;
+      return;
+    }
+    Record(next, n1, inliers, &scratch);
+  });
   size_t num_recorded = 0;
   for (const ScanRecord& r : records_) num_recorded += r.recorded;
   HISFM_LOG_DEBUG(
-      "builtin verifier: tracks of {} pairs, {} of {} bridges recorded "
-      "({} MB; {:.2f} s)",
-      graph_.NumEdges(), num_recorded, bridges.size(),
-      (bridge_keypoints_.Bytes() + records_.size() * sizeof(ScanRecord)) >>
-          20,
+      "builtin verifier: read {} pairs, recorded {} of {} bridges ({} MB; "
+      "{:.2f} s)",
+      tracks_ ? graph_.NumEdges() : bridges.size(), num_recorded,
+      bridges.size(), (bridge_keypoints_.Bytes() + records_bytes) >> 20,
       timer.ElapsedSeconds());
-  return *tracks_;
 }
 
 void ContextDisambiguator::Record(size_t bridge, size_t num_keypoints1,
@@ -272,6 +299,7 @@ std::vector<double> ContextDisambiguator::Score(
   scores.reserve(pairs.size());
   for (const ImagePair& pair : pairs) {
     Prepare(pair);
+    RecordBridges();
     const size_t k = BridgeIndex(pair);
     if (k < records_.size() && records_[k].recorded) {
       ++num_scored_from_scan_;

@@ -101,8 +101,9 @@ struct DisambiguatorOptions {
   /// in MiB. With it a bridge is scored without reading its inliers again;
   /// the bridges beyond the budget are read one by one when Kruskal asks
   /// for them. About 110 MB on the densely matched 5,000-image synthetic
-  /// street (948k bridges).
-  int max_scan_memory_mb = 1024;
+  /// street (948k bridges). Without the distinctive cue there is no tracks'
+  /// read, and a read of the bridges alone records them at the first one.
+  double max_scan_memory_mb = 1024;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -207,6 +208,14 @@ class ContextDisambiguator : public BridgeScorer {
   const std::vector<ImagePair>& Bridges();
   // Index of `pair` in Bridges(), or Bridges().size().
   size_t BridgeIndex(const ImagePair& pair);
+  // Called with each pair's inliers during a read (on the reading thread).
+  using PairObserver = std::function<void(const ImagePair&, FeatureMatchSpan)>;
+  // Records the bridges once: during the tracks' read, or without the
+  // distinctive cue in a read of the bridges alone.
+  void RecordBridges();
+  // Records every bridge the observer handed to `read` meets, within
+  // max_scan_memory_mb.
+  void RecordDuring(const std::function<void(const PairObserver&)>& read);
   // Records a bridge's cells and keypoints during the tracks' read.
   void Record(size_t bridge, size_t num_keypoints1, FeatureMatchSpan inliers,
               CoverageGrid::Scratch* scratch);
@@ -238,6 +247,7 @@ class ContextDisambiguator : public BridgeScorer {
   std::optional<std::vector<ImagePair>> bridges_;
   // By bridge index: what the tracks' read recorded.
   std::vector<ScanRecord> records_;
+  bool records_done_ = false;
   KeypointMultisets bridge_keypoints_;
   size_t num_scored_from_scan_ = 0;
   size_t num_scored_by_reading_ = 0;

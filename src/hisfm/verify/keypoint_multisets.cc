@@ -9,7 +9,7 @@ size_t KeypointMultisets::Add(size_t num_keypoints, FeatureMatchSpan inliers) {
   e.index_offset = indices_.size();
   const size_t num_words = (num_keypoints + 63) / 64;
   // A bitmap costs 8 bytes a word, the list 4 bytes an index.
-  if (2 * num_words <= inliers.size()) {
+  if (num_words > 0 && 2 * num_words <= inliers.size()) {
     e.word_offset = words_.size();
     e.num_words = static_cast<uint32_t>(num_words);
     words_.resize(words_.size() + num_words, 0);
@@ -41,6 +41,27 @@ size_t KeypointMultisets::Add(size_t num_keypoints, FeatureMatchSpan inliers) {
   e.num_indices = static_cast<uint32_t>(indices_.size() - e.index_offset);
   entries_.push_back(e);
   return entries_.size() - 1;
+}
+
+namespace {
+
+// Capacity of `v` once `more` elements are appended (vectors double).
+template <typename T>
+size_t CapacityAfter(const std::vector<T>& v, size_t more) {
+  const size_t need = v.size() + more;
+  return need <= v.capacity() ? v.capacity()
+                              : std::max(need, 2 * v.capacity());
+}
+
+}  // namespace
+
+size_t KeypointMultisets::BytesAfterAdding(size_t num_keypoints,
+                                           size_t num_inliers) const {
+  // At most a bitmap and every index (repeats), or the list.
+  const size_t num_words = (num_keypoints + 63) / 64;
+  return CapacityAfter(entries_, 1) * sizeof(Entry) +
+         CapacityAfter(words_, num_words) * sizeof(uint64_t) +
+         CapacityAfter(indices_, num_inliers) * sizeof(uint32_t);
 }
 
 size_t KeypointMultisets::Bytes() const {

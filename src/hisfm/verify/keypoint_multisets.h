@@ -32,8 +32,11 @@ class KeypointMultisets {
 
   /// Number of multisets.
   size_t Size() const { return entries_.size(); }
-  /// Bytes held.
+  /// Bytes held (capacity).
   size_t Bytes() const;
+  /// Bytes held at most after an Add of that many keypoints and inliers,
+  /// counting the growth of the buffers.
+  size_t BytesAfterAdding(size_t num_keypoints, size_t num_inliers) const;
 
   /// Number of members of multiset `k`, with multiplicity, that are set in
   /// `bits`: bit i of bits[i / 64] for keypoint i, over `num_words` words

@@ -70,5 +70,24 @@ TEST(KeypointMultisets, CountsLikeTheInliersThemselves) {
   }
 }
 
+// An image without keypoints (no keypoints row): every index is out of
+// range, nothing is kept, and counting reads no word.
+TEST(KeypointMultisets, ImageWithoutKeypoints) {
+  KeypointMultisets sets;
+  const std::vector<FeatureMatch> matches = {{0, 1}, {3, 2}, {3, 4}, {9, 9}};
+  const size_t before = sets.BytesAfterAdding(0, matches.size());
+  const size_t k = sets.Add(0, matches);
+  EXPECT_LE(sets.Bytes(), before);
+  EXPECT_EQ(sets.CountIn(k, nullptr, 0), 0u);
+  const uint64_t all = ~uint64_t{0};
+  EXPECT_EQ(sets.CountIn(k, &all, 1), 0u);
+  // Growth is counted before it happens.
+  for (int i = 0; i < 100; ++i) {
+    const size_t bound = sets.BytesAfterAdding(700, matches.size());
+    sets.Add(700, matches);
+    EXPECT_LE(sets.Bytes(), bound) << i;
+  }
+}
+
 }  // namespace
 }  // namespace hisfm
