@@ -100,7 +100,7 @@ struct DisambiguatorOptions {
   /// cell counts and the keypoints its inliers use, keypoint_multisets.h),
   /// in MiB. With it a bridge is scored without reading its inliers again;
   /// the bridges beyond the budget are read one by one when Kruskal asks
-  /// for them. About 110 MB on the densely matched 5,000-image synthetic
+  /// for them. About 150 MB on the densely matched 5,000-image synthetic
   /// street (948k bridges). Without the distinctive cue there is no tracks'
   /// read, and a read of the bridges alone records them at the first one.
   double max_scan_memory_mb = 1024;
