@@ -83,6 +83,10 @@ void AddHierarchicalMapperFlags(CLI::App& app,
   app.add_option("--HiSfM.filter_num_third_views", pf.num_third_views,
                  "Pair filter: third views tried per image")
       ->capture_default_str();
+  app.add_option("--HiSfM.filter_num_threads", pf.num_threads,
+                 "Pair filter: threads of the three-view test (0 = one per "
+                 "core)")
+      ->capture_default_str();
   app.add_option("--HiSfM.filter_min_relative_coverage",
                  pf.min_relative_coverage,
                  "Pair filter: coverage relative to the image's best-covering "

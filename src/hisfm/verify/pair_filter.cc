@@ -5,6 +5,7 @@
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/inlier_coverage.h"
 #include "hisfm/verify/track_consistency.h"
@@ -22,6 +23,7 @@ void PairFilterOptions::Check() const {
   HISFM_CHECK_OPTION(min_relative_coverage >= 0 && min_relative_coverage <= 1);
   HISFM_CHECK_OPTION(num_coverage_pairs >= 2);
   HISFM_CHECK_OPTION(coverage_grid_cells >= 2 && coverage_grid_cells <= 100);
+  HISFM_CHECK_OPTION(num_threads >= 0);
 }
 
 PairFilterResult FilterAmbiguousPairs(const Database& database,
@@ -109,8 +111,16 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
         return a.first > b.first || (a.first == b.first && a.second < b.second);
       });
     }
+    // Each pair is judged on its own (the shared cache is thread-safe), in
+    // parallel; the verdicts are then collected in edge order.
     PairGeometryCache cache(database);
-    for (const ViewGraphEdge& e : kept_a) {
+    struct Verdict {
+      bool judged = false;
+      double fraction = 1.0;
+    };
+    std::vector<Verdict> verdicts(kept_a.size());
+    ParallelFor(kept_a.size(), options.num_threads, [&](size_t i) {
+      const ViewGraphEdge& e = kept_a[i];
       const std::shared_ptr<const PairGeometryCache::PairGeometry> xy =
           cache.Pair(e.pair, /*keep=*/false);
       bool judged = false;
@@ -121,7 +131,7 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
         bool side_judged = false;
         double side = 0.0;
         int used = 0;
-        for (const auto& [weight, t] : neighbours[x]) {
+        for (const auto& [weight, t] : neighbours.at(x)) {
           if (t == y) continue;
           if (used++ >= options.num_third_views) break;
           const ThreeViewResult r = MeasureThreeViewConsistency(
@@ -138,6 +148,12 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
           fraction = std::min(fraction, side);
         }
       }
+      verdicts[i] = {judged, fraction};
+    }, /*grain=*/16);
+    for (size_t i = 0; i < kept_a.size(); ++i) {
+      const ViewGraphEdge& e = kept_a[i];
+      const bool judged = verdicts[i].judged;
+      const double fraction = verdicts[i].fraction;
       result.num_three_view_judged += judged;
       if (judged && fraction < options.min_three_view_consistency) {
         result.removed.push_back({e.pair, e.weight, "three_view", fraction});

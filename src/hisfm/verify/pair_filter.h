@@ -84,6 +84,9 @@ struct PairFilterOptions {
   int num_coverage_pairs = 3;
   /// Test C: cells along the longer image side of the coverage grid.
   int coverage_grid_cells = 10;
+  /// Threads judging pairs in test B (0 = one per core). The result does
+  /// not depend on it.
+  int num_threads = 0;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;

@@ -29,6 +29,9 @@ TEST(PairFilterOptions, CheckRejectsBadValues) {
   o.num_coverage_pairs = 1;
   EXPECT_THROW(o.Check(), Error);
   o = PairFilterOptions();
+  o.num_threads = -1;
+  EXPECT_THROW(o.Check(), Error);
+  o = PairFilterOptions();
   o.three_view.max_error_px = 0;
   EXPECT_THROW(o.Check(), Error);
 }
@@ -106,6 +109,30 @@ TEST(FilterAmbiguousPairs, KeepsEveryPairOfAUniqueStreet) {
   EXPECT_EQ(result.graph.NumEdges(), graph.NumEdges());
   EXPECT_LT(result.inconsistent_track_fraction, 0.02);
   EXPECT_GT(result.num_three_view_judged, graph.NumEdges() / 2);
+}
+
+// The three-view test judges pairs on several threads: the same pairs are
+// removed, with the same values, on one, two or three.
+TEST(FilterAmbiguousPairs, ThreadsDoNotChangeTheResult) {
+  TempDir dir("hisfm-pairfilter");
+  street_test::Write(dir / "database.db", {24, true, 5});
+  Database db(dir / "database.db");
+  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  PairFilterOptions options;
+  options.num_threads = 1;
+  const PairFilterResult serial = FilterAmbiguousPairs(db, graph, options);
+  ASSERT_GT(serial.num_removed_three_view, 0u);
+  for (const int threads : {2, 3}) {
+    options.num_threads = threads;
+    const PairFilterResult parallel = FilterAmbiguousPairs(db, graph, options);
+    EXPECT_EQ(parallel.num_three_view_judged, serial.num_three_view_judged);
+    ASSERT_EQ(parallel.removed.size(), serial.removed.size()) << threads;
+    for (size_t k = 0; k < serial.removed.size(); ++k) {
+      EXPECT_EQ(parallel.removed[k].pair, serial.removed[k].pair);
+      EXPECT_EQ(parallel.removed[k].test, serial.removed[k].test);
+      EXPECT_DOUBLE_EQ(parallel.removed[k].value, serial.removed[k].value);
+    }
+  }
 }
 
 // Image 1 (100 x 100 px, 10 x 10 cells) has a strong pair with image 2 whose

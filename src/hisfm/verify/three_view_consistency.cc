@@ -35,9 +35,16 @@ PairGeometryCache::PairGeometryCache(const Database& database)
 
 const std::vector<Eigen::Vector2d>& PairGeometryCache::Normalized(
     ImageId image_id) {
-  auto it = normalized_.find(image_id);
-  if (it != normalized_.end()) return it->second;
-  const Keypoints keypoints = database_.ReadKeypoints(image_id);
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    auto it = normalized_.find(image_id);
+    if (it != normalized_.end()) return it->second;
+  }
+  Keypoints keypoints;
+  {
+    const std::lock_guard<std::mutex> lock(read_mutex_);
+    keypoints = database_.ReadKeypoints(image_id);
+  }
   const CameraProjection& camera =
       cameras_.at(camera_of_image_.at(image_id));
   std::vector<Eigen::Vector2d> out(keypoints.rows());
@@ -45,6 +52,9 @@ const std::vector<Eigen::Vector2d>& PairGeometryCache::Normalized(
     out[r] = camera.PixelToNormalized(
         Eigen::Vector2d(keypoints(r, 0), keypoints(r, 1)));
   }
+  // (Another thread may have added it meanwhile: then its copy is kept.
+  // Elements of an unordered_map keep their address when it grows.)
+  const std::lock_guard<std::mutex> lock(mutex_);
   return normalized_.emplace(image_id, std::move(out)).first->second;
 }
 
@@ -54,10 +64,16 @@ double PairGeometryCache::Focal(ImageId image_id) {
 
 std::shared_ptr<const PairGeometryCache::PairGeometry> PairGeometryCache::Pair(
     const ImagePair& pair, bool keep) {
-  auto it = pairs_.find(pair);
-  if (it != pairs_.end()) return it->second;
-  const TwoViewGeometry g =
-      database_.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    auto it = pairs_.find(pair);
+    if (it != pairs_.end()) return it->second;
+  }
+  TwoViewGeometry g;
+  {
+    const std::lock_guard<std::mutex> lock(read_mutex_);
+    g = database_.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
+  }
   auto out = std::make_shared<PairGeometry>();
   out->pair = g.pair;
   const std::vector<Eigen::Vector2d>& n1 = Normalized(g.pair.image_id1);
@@ -83,8 +99,9 @@ std::shared_ptr<const PairGeometryCache::PairGeometry> PairGeometryCache::Pair(
       g, cameras_.at(camera_of_image_.at(g.pair.image_id1)).K(),
       cameras_.at(camera_of_image_.at(g.pair.image_id2)).K());
   out->has_pose = PoseFromEssential(E, x1, x2, &out->cam2_from_cam1) > 0;
-  if (keep) pairs_[pair] = out;
-  return out;
+  if (!keep) return out;
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return pairs_.emplace(pair, out).first->second;
 }
 
 namespace {

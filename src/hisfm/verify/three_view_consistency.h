@@ -30,6 +30,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -80,7 +81,9 @@ struct ThreeViewResult {
 
 /// Normalized keypoints and relative poses of a database's images and
 /// pairs, read lazily and cached (the pose of a pair is recovered from its
-/// stored geometry, two_view_pose.h).
+/// stored geometry, two_view_pose.h). Safe to use from several threads at
+/// once: their reads of the database take turns, their computations do
+/// not.
 class PairGeometryCache {
  public:
   /// The database must outlive the cache.
@@ -111,6 +114,9 @@ class PairGeometryCache {
 
  private:
   const Database& database_;
+  // Guards the two caches below; read_mutex_ the database's connection.
+  std::mutex mutex_;
+  std::mutex read_mutex_;
   std::unordered_map<CameraId, CameraProjection> cameras_;
   std::unordered_map<ImageId, CameraId> camera_of_image_;
   std::unordered_map<ImageId, std::vector<Eigen::Vector2d>> normalized_;
