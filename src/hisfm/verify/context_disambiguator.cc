@@ -116,8 +116,9 @@ const TrackConsistency& ContextDisambiguator::Tracks() {
     tracks_ = std::make_unique<TrackConsistency>(database_, graph_);
   } else if (!tracks_) {
     // The read that joins the tracks also records the bridges.
-    RecordDuring([&](const PairObserver& observe) {
-      tracks_ = std::make_unique<TrackConsistency>(database_, graph_, observe);
+    RecordDuring([&](const PairObserver& on_read, const PairObserver& on_join) {
+      tracks_ = std::make_unique<TrackConsistency>(database_, graph_, on_read,
+                                                   on_join);
     });
   }
   return *tracks_;
@@ -130,15 +131,15 @@ void ContextDisambiguator::RecordBridges() {
   } else {
     // Without the distinctive cue there are no tracks to join: a read of the
     // bridges alone.
-    RecordDuring([&](const PairObserver& observe) {
-      database_.ForEachInlierMatches(
-          Bridges(), [](const ImagePair&, FeatureMatchSpan) {}, observe);
+    RecordDuring([&](const PairObserver& on_read, const PairObserver& on_join) {
+      database_.ForEachInlierMatches(Bridges(), on_join, on_read);
     });
   }
 }
 
 void ContextDisambiguator::RecordDuring(
-    const std::function<void(const PairObserver&)>& read) {
+    const std::function<void(const PairObserver&, const PairObserver&)>&
+        read) {
   records_done_ = true;
   const Timer timer;
   const std::vector<ImagePair>& bridges = Bridges();
@@ -151,23 +152,45 @@ void ContextDisambiguator::RecordDuring(
   records_.assign(bridges.size(), ScanRecord());
   const double max_bytes = options_.max_scan_memory_mb * (1 << 20);
   const size_t records_bytes = records_.size() * sizeof(ScanRecord);
-  bool full = false;
-  size_t next = 0;
+  // Both observers see the reads in pair-id order, as the bridges are
+  // listed; each walks the list on its own and writes its own fields of a
+  // record.
+  size_t read_next = 0;
   CoverageGrid::Scratch scratch;
-  // Runs on the reading thread; the reads come in pair-id order, as the
-  // bridges are listed.
-  read([&](const ImagePair& pair, FeatureMatchSpan inliers) {
-    while (next < bridges.size() && bridges[next] < pair) ++next;
-    if (full || next == bridges.size() || !(bridges[next] == pair)) return;
+  const PairObserver count_cells = [&](const ImagePair& pair,
+                                       FeatureMatchSpan inliers) {
+    while (read_next < bridges.size() && bridges[read_next] < pair) {
+      ++read_next;
+    }
+    if (read_next == bridges.size() || !(bridges[read_next] == pair)) return;
+    ScanRecord& r = records_[read_next];
+    r.cells1 = grid_.CoveredCells(pair.image_id1, inliers, true, &scratch);
+    r.cells2 = grid_.CoveredCells(pair.image_id2, inliers, false, &scratch);
+  };
+  size_t join_next = 0;
+  bool full = false;
+  const PairObserver keep_keypoints = [&](const ImagePair& pair,
+                                          FeatureMatchSpan inliers) {
+    while (join_next < bridges.size() && bridges[join_next] < pair) {
+      ++join_next;
+    }
+    if (full || join_next == bridges.size() || !(bridges[join_next] == pair)) {
+      return;
+    }
     auto it = num_keypoints.find(pair.image_id1);
     const size_t n1 = it == num_keypoints.end() ? 0 : it->second;
-    if (records_bytes + bridge_keypoints_.BytesAfterAdding(n1, inliers.size()) >
+    if (records_bytes +
+            bridge_keypoints_.BytesAfterAdding(n1, inliers.size()) >
         max_bytes) {
       full = true;
       return;
     }
-    Record(next, n1, inliers, &scratch);
-  });
+    ScanRecord& r = records_[join_next];
+    r.num_inliers = static_cast<uint32_t>(inliers.size());
+    r.keypoints = bridge_keypoints_.Add(n1, inliers);
+    r.recorded = true;
+  };
+  read(count_cells, keep_keypoints);
   size_t num_recorded = 0;
   for (const ScanRecord& r : records_) num_recorded += r.recorded;
   HISFM_LOG_DEBUG(
@@ -176,18 +199,6 @@ void ContextDisambiguator::RecordDuring(
       tracks_ ? graph_.NumEdges() : bridges.size(), num_recorded,
       bridges.size(), (bridge_keypoints_.Bytes() + records_bytes) >> 20,
       timer.ElapsedSeconds());
-}
-
-void ContextDisambiguator::Record(size_t bridge, size_t num_keypoints1,
-                                  FeatureMatchSpan inliers,
-                                  CoverageGrid::Scratch* scratch) {
-  const ImagePair& pair = (*bridges_)[bridge];
-  ScanRecord& r = records_[bridge];
-  r.recorded = true;
-  r.num_inliers = static_cast<uint32_t>(inliers.size());
-  r.cells1 = grid_.CoveredCells(pair.image_id1, inliers, true, scratch);
-  r.cells2 = grid_.CoveredCells(pair.image_id2, inliers, false, scratch);
-  r.keypoints = bridge_keypoints_.Add(num_keypoints1, inliers);
 }
 
 ContextDisambiguator::~ContextDisambiguator() = default;

@@ -213,12 +213,12 @@ class ContextDisambiguator : public BridgeScorer {
   // Records the bridges once: during the tracks' read, or without the
   // distinctive cue in a read of the bridges alone.
   void RecordBridges();
-  // Records every bridge the observer handed to `read` meets, within
-  // max_scan_memory_mb.
-  void RecordDuring(const std::function<void(const PairObserver&)>& read);
-  // Records a bridge's cells and keypoints during the tracks' read.
-  void Record(size_t bridge, size_t num_keypoints1, FeatureMatchSpan inliers,
-              CoverageGrid::Scratch* scratch);
+  // Records every bridge that a read meets, within max_scan_memory_mb:
+  // `read` is given two observers, one for the reading thread (coverage
+  // cells) and one for the caller's (keypoint multisets).
+  void RecordDuring(
+      const std::function<void(const PairObserver&, const PairObserver&)>&
+          read);
   // Measures a prepared pair from its inlier matches (oriented as stored).
   BridgeEvidence MeasureInliers(const ImagePair& pair,
                                 FeatureMatchSpan inliers);

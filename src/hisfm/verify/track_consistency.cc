@@ -11,7 +11,8 @@ namespace hisfm {
 
 TrackConsistency::TrackConsistency(
     const Database& database, const ViewGraph& graph,
-    const std::function<void(const ImagePair&, FeatureMatchSpan)>& observe) {
+    const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_read,
+    const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_join) {
   // Keypoints of all graph images, indexed densely.
   const std::unordered_map<ImageId, size_t> num_keypoints =
       database.ReadNumKeypoints();
@@ -43,8 +44,9 @@ TrackConsistency::TrackConsistency(
           state_[a] = state_[b] = kDistinctive;
           tracks.Union(a, b);
         }
+        if (on_join) on_join(pair, inliers);
       },
-      observe);
+      on_read);
   if (num_read != graph.NumEdges()) {
     throw Error(StrCat("track consistency: ", graph.NumEdges() - num_read,
                        " pair(s) of the view graph have no two-view geometry "

@@ -72,13 +72,18 @@ class TrackConsistency {
   /// `database`) into tracks and marks the keypoints of inconsistent tracks.
   /// Costs one read of every edge's inliers (in pair-id order, in one read
   /// transaction) and near-linear time in the number of inlier matches.
-  /// `observe`, if set, is also called with every edge's inliers (oriented
-  /// as stored) during that read, for callers that need more of them: on
-  /// the reading thread (Database::ForEachInlierMatches' on_read), so it
-  /// must not use this TrackConsistency.
+  /// For callers that need more of the inliers, `on_read` and `on_join`, if
+  /// set, are also called with every edge's inliers (oriented as stored,
+  /// in pair-id order) during that read: `on_read` on the reading thread
+  /// (Database::ForEachInlierMatches' on_read), concurrently with the
+  /// joining, and `on_join` on this thread once the edge is joined. Work
+  /// split between the two uses both cores. Neither may use this
+  /// TrackConsistency, and the two must not share unsynchronized state.
   TrackConsistency(
       const Database& database, const ViewGraph& graph,
-      const std::function<void(const ImagePair&, FeatureMatchSpan)>& observe =
+      const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_read =
+          nullptr,
+      const std::function<void(const ImagePair&, FeatureMatchSpan)>& on_join =
           nullptr);
 
   /// True if keypoint `idx` of the image has an inlier match in some edge.
