@@ -161,10 +161,10 @@ class Database {
   /// (sequential page access, one prepared statement, one read transaction)
   /// and calls `fn(pair, matches)` for each, on the calling thread, the pair
   /// oriented as stored (the span is valid during the call only); pairs
-  /// absent from the database are skipped,
-  /// duplicates read once. From 4,096 pairs on, a second read-only
-  /// connection (its own snapshot, outside any ReadScope of this one) reads
-  /// ahead on its own thread while `fn` runs. `on_read`, if set, is called
+  /// absent from the database are skipped, duplicates read once. From 4,096
+  /// pairs on, a second read-only connection (its own snapshot, outside any
+  /// ReadScope of this one) reads ahead on its own thread while `fn` runs.
+  /// `on_read`, if set, is called
   /// with each pair as it is read, before `fn` gets it and in the same
   /// order, on that reading thread when there is one: concurrently with
   /// `fn`, so the two must not share unsynchronized state (work on the

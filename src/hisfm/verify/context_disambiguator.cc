@@ -153,16 +153,18 @@ void ContextDisambiguator::RecordDuring(
   const double max_bytes = options_.max_scan_memory_mb * (1 << 20);
   const size_t records_bytes = records_.size() * sizeof(ScanRecord);
   // Both observers see the reads in pair-id order, as the bridges are
-  // listed; each walks the list on its own and writes its own fields of a
-  // record.
+  // listed; each walks the list with its own cursor (advanced to `pair`:
+  // true if `pair` is a bridge, then at its index) and writes its own fields
+  // of a record.
+  auto seek = [&](size_t* cursor, const ImagePair& pair) {
+    while (*cursor < bridges.size() && bridges[*cursor] < pair) ++*cursor;
+    return *cursor < bridges.size() && bridges[*cursor] == pair;
+  };
   size_t read_next = 0;
   CoverageGrid::Scratch scratch;
   const PairObserver count_cells = [&](const ImagePair& pair,
                                        FeatureMatchSpan inliers) {
-    while (read_next < bridges.size() && bridges[read_next] < pair) {
-      ++read_next;
-    }
-    if (read_next == bridges.size() || !(bridges[read_next] == pair)) return;
+    if (!seek(&read_next, pair)) return;
     ScanRecord& r = records_[read_next];
     r.cells1 = grid_.CoveredCells(pair.image_id1, inliers, true, &scratch);
     r.cells2 = grid_.CoveredCells(pair.image_id2, inliers, false, &scratch);
@@ -171,12 +173,7 @@ void ContextDisambiguator::RecordDuring(
   bool full = false;
   const PairObserver keep_keypoints = [&](const ImagePair& pair,
                                           FeatureMatchSpan inliers) {
-    while (join_next < bridges.size() && bridges[join_next] < pair) {
-      ++join_next;
-    }
-    if (full || join_next == bridges.size() || !(bridges[join_next] == pair)) {
-      return;
-    }
+    if (full || !seek(&join_next, pair)) return;
     auto it = num_keypoints.find(pair.image_id1);
     const size_t n1 = it == num_keypoints.end() ? 0 : it->second;
     if (records_bytes +

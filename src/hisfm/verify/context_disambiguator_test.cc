@@ -440,8 +440,12 @@ TEST(ContextDisambiguator, RecordedBridgesScoreLikeTheirInliers) {
                                        : reading_now.Evaluate(inside[0]).score);
       const size_t from_scan = scanned.NumScoredFromScan();
       EXPECT_EQ(from_scan + scanned.NumScoredByReading(), asked.size());
-      if (budget_mb == 1024) EXPECT_EQ(from_scan, bridges.size());
-      if (budget_mb == 0) EXPECT_EQ(from_scan, 0u);
+      if (budget_mb == 1024) {
+        EXPECT_EQ(from_scan, bridges.size());
+      }
+      if (budget_mb == 0) {
+        EXPECT_EQ(from_scan, 0u);
+      }
       num_partial += from_scan > 0 && from_scan < bridges.size();
     }
   }

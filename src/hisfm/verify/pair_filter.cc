@@ -59,15 +59,10 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   std::vector<ViewGraphEdge> kept_a;
   // Distinctive inliers of each pair kept by A: ranks third views for B.
   std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
-  std::vector<DistinctiveSupport> support;
-  support.reserve(graph.NumEdges());
-  for (size_t i = 0; i < graph.NumEdges(); ++i) {
-    support.push_back(tracks.Support(graph.Edges()[i].pair, num_inliers[i],
-                                     first_keypoints, i));
-  }
   for (size_t i = 0; i < graph.NumEdges(); ++i) {
     const ViewGraphEdge& e = graph.Edges()[i];
-    const DistinctiveSupport& s = support.at(i);
+    const DistinctiveSupport s =
+        tracks.Support(e.pair, num_inliers[i], first_keypoints, i);
     if (options.min_distinctive_ratio > 0 &&
         s.Deficient(options.min_distinctive_ratio,
                     options.distinctive_significance)) {

@@ -30,6 +30,19 @@ struct Street : street_test::Opened {
   Street() : Opened(5) {}
   TrackConsistency tracks{db, graph};
   PairGeometryCache cache{db};
+
+  // The third view of `pair` seen from its first image x: x's neighbour one
+  // photo away, if it is not the pair's other image and (x, t) is a pair of
+  // the street; 0 otherwise.
+  ImageId ThirdView(const ImagePair& pair) const {
+    const ImageId x = pair.image_id1;
+    const ImageId t = x > 1 ? x - 1 : x + 1;
+    if (t == pair.image_id2 || !graph.HasImage(t) ||
+        !scene.shift.count(ImagePair(x, t))) {
+      return 0;
+    }
+    return t;
+  }
 };
 
 // The street's pairs as seen from their first image, through its
@@ -37,7 +50,6 @@ struct Street : street_test::Opened {
 TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
   Street street;
   const street_test::Scene& scene = street.scene;
-  const ViewGraph& graph = street.graph;
   const TrackConsistency& tracks = street.tracks;
   PairGeometryCache& cache = street.cache;
   const ThreeViewOptions options;
@@ -45,12 +57,8 @@ TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
   int num_true = 0, num_mixed = 0;
   for (const auto& [pair, shift] : scene.shift) {
     const ImageId x = pair.image_id1;
-    const ImageId t = x > 1 ? x - 1 : x + 1;
-    if (t == pair.image_id2 || !graph.HasImage(t) ||
-        !scene.shift.count(ImagePair(x, t)) ||
-        scene.shift.at(ImagePair(x, t)) != 0) {
-      continue;
-    }
+    const ImageId t = street.ThirdView(pair);
+    if (t == 0 || scene.shift.at(ImagePair(x, t)) != 0) continue;
     const ThreeViewResult r = MeasureThreeViewConsistency(
         cache, tracks, *cache.Pair(pair), x, t, options);
     const double true_fraction = scene.true_fraction.at(pair);
@@ -80,7 +88,6 @@ TEST(ThreeViewConsistency, TruePairsAgreeAndMixedPairsDoNot) {
 TEST(ThreeViewConsistency, SubsampledSharedPointsKeepTheVerdict) {
   Street street;
   const street_test::Scene& scene = street.scene;
-  const ViewGraph& graph = street.graph;
   const TrackConsistency& tracks = street.tracks;
   PairGeometryCache& cache = street.cache;
   ThreeViewOptions all;
@@ -90,11 +97,8 @@ TEST(ThreeViewConsistency, SubsampledSharedPointsKeepTheVerdict) {
   int num_compared = 0;
   for (const auto& [pair, shift] : scene.shift) {
     const ImageId x = pair.image_id1;
-    const ImageId t = x > 1 ? x - 1 : x + 1;
-    if (t == pair.image_id2 || !graph.HasImage(t) ||
-        !scene.shift.count(ImagePair(x, t))) {
-      continue;
-    }
+    const ImageId t = street.ThirdView(pair);
+    if (t == 0) continue;
     const auto xy = cache.Pair(pair);
     const ThreeViewResult full =
         MeasureThreeViewConsistency(cache, tracks, *xy, x, t, all);
