@@ -19,52 +19,27 @@ namespace fs = std::filesystem;
 namespace hisfm {
 namespace {
 
-bool IsModelFolder(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_regular_file(path / "cameras.bin", ec) ||
-         fs::is_regular_file(path / "cameras.txt", ec);
-}
-
-bool IsNumber(const std::string& s) {
-  return !s.empty() && s.size() < 10 &&
-         std::all_of(s.begin(), s.end(),
-                     [](char c) { return c >= '0' && c <= '9'; });
-}
-
-// Numbered model folders (0, 1, 2, ...) directly inside `folder`, in
-// numeric order.
-std::vector<fs::path> NumberedModels(const fs::path& folder) {
-  std::vector<std::pair<long, fs::path>> found;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(folder, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (entry.is_directory(ec) && IsNumber(name) &&
-        IsModelFolder(entry.path())) {
-      found.emplace_back(std::stol(name), entry.path());
-    }
-  }
-  std::sort(found.begin(), found.end());
-  std::vector<fs::path> out;
-  for (const auto& [number, path] : found) out.push_back(path);
-  return out;
-}
-
 // The model folders that make up the result at `model_path`: the folder
 // itself, all numbered folders beside it if it is one of several, or the
 // numbered folders inside it (a COLMAP `sparse` folder).
-std::vector<fs::path> FindModels(const std::string& model_path) {
+std::vector<std::string> FindModels(const std::string& model_path) {
   CheckDirectoryExists(model_path, "model");
   fs::path path = fs::absolute(model_path).lexically_normal();
   if (path.filename().empty()) path = path.parent_path();  // trailing '/'
-  if (IsModelFolder(path)) {
-    const fs::path parent = path.parent_path();
-    if (IsNumber(path.filename().string()) && !parent.empty()) {
-      const std::vector<fs::path> siblings = NumberedModels(parent);
+  if (HasModel(path.string())) {
+    const std::string name = path.filename().string();
+    const bool numbered =
+        !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+          return c >= '0' && c <= '9';
+        });
+    if (numbered && !path.parent_path().empty()) {
+      const std::vector<std::string> siblings =
+          NumberedModelFolders(path.parent_path().string());
       if (siblings.size() > 1) return siblings;
     }
-    return {path};
+    return {path.string()};
   }
-  const std::vector<fs::path> inside = NumberedModels(path);
+  const std::vector<std::string> inside = NumberedModelFolders(path.string());
   ThrowUnless(!inside.empty(),
               StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
                      "numbered model folders) in ",
@@ -128,11 +103,9 @@ int RunEvaluate(int argc, char** argv) {
   }
   options.Check();
 
-  const std::vector<fs::path> model_paths = FindModels(model_path);
+  const std::vector<std::string> model_paths = FindModels(model_path);
   std::vector<Reconstruction> models;
-  for (const fs::path& path : model_paths) {
-    models.push_back(ReadModel(path.string()));
-  }
+  for (const std::string& path : model_paths) models.push_back(ReadModel(path));
   const Reconstruction reference = ReadModel(reference_path);
   ThrowUnless(!reference.images.empty(),
               StrCat("reference model has no images: ", reference_path));
@@ -146,7 +119,7 @@ int RunEvaluate(int argc, char** argv) {
     ThrowUnless(mkdtemp(work) != nullptr, "cannot create a temporary folder");
     const RetriangulationStats stats = Retriangulate(
         database_path, image_path,
-        model_paths[evaluation.largest_model].string(), work,
+        model_paths[evaluation.largest_model], work,
         ColmapRunnerOptions());
     std::error_code ec;
     fs::remove_all(work, ec);
@@ -158,10 +131,7 @@ int RunEvaluate(int argc, char** argv) {
                         "\n");
   }
   j["reference_path"] = reference_path;
-  j["model_paths"] = nlohmann::json::array();
-  for (const fs::path& path : model_paths) {
-    j["model_paths"].push_back(path.string());
-  }
+  j["model_paths"] = model_paths;
   if (!output_path.empty()) {
     WriteFileAtomically(output_path, j.dump(2) + "\n");
   }
@@ -170,10 +140,10 @@ int RunEvaluate(int argc, char** argv) {
   } else {
     std::string header;
     if (model_paths.size() == 1) {
-      header = StrCat("model: ", model_paths[0].string(), "\n");
+      header = StrCat("model: ", model_paths[0], "\n");
     } else {
       header = "models:";
-      for (const fs::path& path : model_paths) header += " " + path.string();
+      for (const std::string& path : model_paths) header += " " + path;
       header += "\n";
     }
     header += StrCat("reference: ", reference_path, "\n");

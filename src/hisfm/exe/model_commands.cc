@@ -2,7 +2,6 @@
 // model_analyzer), `hisfm model_converter`: binary <-> text, and
 // `hisfm model_export`: points and camera centres as PLY for viewers.
 #include <CLI/CLI.hpp>
-#include <algorithm>
 #include <array>
 #include <cctype>
 #include <cstdio>
@@ -23,37 +22,17 @@ namespace fs = std::filesystem;
 namespace hisfm {
 namespace {
 
-bool IsModelFolder(const fs::path& path) {
-  std::error_code ec;
-  return fs::is_regular_file(path / "cameras.bin", ec) ||
-         fs::is_regular_file(path / "cameras.txt", ec);
-}
-
 // The model folders at `path`: the folder itself if it holds a model, else
 // its numbered sub-folders (0, 1, ...) that do, in numeric order.
 std::vector<std::string> ModelFolders(const std::string& path) {
   CheckDirectoryExists(path, "model folder");
-  if (IsModelFolder(path)) return {path};
-  std::vector<std::pair<long, std::string>> found;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(path, ec)) {
-    const std::string name = entry.path().filename().string();
-    const bool number =
-        !name.empty() && name.size() < 10 &&
-        std::all_of(name.begin(), name.end(),
-                    [](char c) { return c >= '0' && c <= '9'; });
-    if (number && entry.is_directory(ec) && IsModelFolder(entry.path())) {
-      found.emplace_back(std::stol(name), entry.path().string());
-    }
-  }
+  if (HasModel(path)) return {path};
+  const std::vector<std::string> found = NumberedModelFolders(path);
   ThrowUnless(!found.empty(),
               StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
                      "numbered model folders) in ",
                      path));
-  std::sort(found.begin(), found.end());
-  std::vector<std::string> out;
-  for (const auto& [n, p] : found) out.push_back(p);
-  return out;
+  return found;
 }
 
 int RunModelStats(int argc, char** argv) {

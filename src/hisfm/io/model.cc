@@ -558,14 +558,35 @@ Reconstruction ReadModel(const std::string& path) {
   throw Error(StrCat("no COLMAP model (cameras.bin or cameras.txt) in ", path));
 }
 
+bool HasModel(const std::string& path) {
+  return ExistsFile(JoinPath(path, "cameras.bin")) ||
+         ExistsFile(JoinPath(path, "cameras.txt"));
+}
+
+std::vector<std::string> NumberedModelFolders(const std::string& folder) {
+  std::vector<std::pair<long, std::string>> found;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    const bool number =
+        !name.empty() && name.size() < 10 &&
+        std::all_of(name.begin(), name.end(),
+                    [](char c) { return c >= '0' && c <= '9'; });
+    if (number && entry.is_directory(ec) && HasModel(entry.path().string())) {
+      found.emplace_back(std::stol(name), entry.path().string());
+    }
+  }
+  std::sort(found.begin(), found.end());
+  std::vector<std::string> out;
+  for (const auto& [number, path] : found) out.push_back(path);
+  return out;
+}
+
 std::vector<Reconstruction> ReadNumberedModels(const std::string& folder) {
   std::vector<Reconstruction> models;
   for (int i = 0;; ++i) {
     const std::string path = JoinPath(folder, std::to_string(i));
-    if (!ExistsFile(JoinPath(path, "cameras.bin")) &&
-        !ExistsFile(JoinPath(path, "cameras.txt"))) {
-      break;
-    }
+    if (!HasModel(path)) break;
     models.push_back(ReadModel(path));
   }
   return models;

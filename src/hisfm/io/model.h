@@ -113,6 +113,12 @@ std::string CameraModelIdToName(int model_id);
 /// Model id for a COLMAP model name, or -1 if unknown.
 int CameraModelNameToId(const std::string& name);
 
+/// True if `path` is a folder holding a model (cameras.bin or cameras.txt).
+bool HasModel(const std::string& path);
+/// The numbered sub-folders of `folder` (0, 1, 2, ... as colmap mapper
+/// writes them) that hold a model, in numeric order; empty if there is none
+/// or `folder` cannot be read.
+std::vector<std::string> NumberedModelFolders(const std::string& folder);
 /// Reads a model folder, binary if cameras.bin is there, else text; throws
 /// hisfm::Error with a one-line message if it is missing or malformed.
 Reconstruction ReadModel(const std::string& path);

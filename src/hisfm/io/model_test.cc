@@ -368,6 +368,31 @@ TEST(Model, MissingFilesAreErrors) {
   EXPECT_THROW(WriteModelText(MakeSyntheticModel(), dir / "nothing"), Error);
 }
 
+TEST(Model, FindsNumberedModelFolders) {
+  TempDir dir("hisfm-model");
+  EXPECT_FALSE(HasModel(dir.path()));
+  EXPECT_TRUE(NumberedModelFolders(dir.path()).empty());
+  EXPECT_TRUE(NumberedModelFolders(dir / "missing").empty());
+  // Models in 10, 2 and 0 (binary and text), a numbered folder without a
+  // model, a named folder with one, and a numbered file.
+  for (const std::string name : {"10", "2", "1", "sparse"}) {
+    fs::create_directories(dir / name);
+  }
+  fs::create_directories(dir / "0");
+  WriteModelBinary(MakeSyntheticModel(), dir / "10");
+  WriteModelBinary(MakeSyntheticModel(), dir / "sparse");
+  WriteModelText(MakeSyntheticModel(), dir / "2");
+  WriteModelText(MakeSyntheticModel(), dir / "0");
+  WriteFileAtomically(dir / "3", "not a folder\n");
+  EXPECT_TRUE(HasModel(dir / "2"));
+  EXPECT_TRUE(HasModel(dir / "10"));
+  EXPECT_FALSE(HasModel(dir / "1"));
+  EXPECT_EQ(NumberedModelFolders(dir.path()),
+            (std::vector<std::string>{dir / "0", dir / "2", dir / "10"}));
+  // ReadNumberedModels stops at the first missing number.
+  EXPECT_EQ(ReadNumberedModels(dir.path()).size(), 1u);
+}
+
 TEST(Model, WritingFollowsFileOrder) {
   Reconstruction model = MakeSyntheticModel();
   model.file_order.points3D = {119, 100, 119, 5000, 110};

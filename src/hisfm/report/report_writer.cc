@@ -1054,8 +1054,7 @@ ReportInput ReadMapperReportInput(const std::string& output_path) {
   if (in.summary.contains("models") && !in.summary["models"].empty()) {
     model_dir = output_path + "/" + JStr(in.summary["models"][0], "path");
   }
-  if (fs::exists(model_dir + "/cameras.bin") ||
-      fs::exists(model_dir + "/cameras.txt")) {
+  if (HasModel(model_dir)) {
     in.model = ReadModel(model_dir);
   }
   const std::string work = JStr(in.summary, "work_path");
