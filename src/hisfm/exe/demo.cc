@@ -115,14 +115,11 @@ int RunDemoCommand(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", synth.seed, "Random seed of the scene")
       ->capture_default_str();
-  AddHierarchicalMapperFlags(app, &options);
-  AddLogLevelFlag(app, &log_level);
-  app.allow_extras();
-  if (const int code = ParseMapperCommand(app, argc, argv, &options);
+  if (const int code =
+          ParseMapperCommand(app, argc, argv, &options, &log_level);
       code >= 0) {
     return code;
   }
-  options.Check();
   synth.Check();
   CheckColmapAvailable(options.colmap);
   workspace = fs::absolute(workspace).lexically_normal().string();

@@ -34,10 +34,8 @@ int RunMapperCommand(int argc, char** argv) {
       ->required();
   app.add_option("--work_path", paths.work_path,
                  "Intermediate files (default OUTPUT_work)");
-  AddHierarchicalMapperFlags(app, &options);
-  AddLogLevelFlag(app, &log_level);
-  app.allow_extras();
-  if (const int code = ParseMapperCommand(app, argc, argv, &options);
+  if (const int code =
+          ParseMapperCommand(app, argc, argv, &options, &log_level);
       code >= 0) {
     return code;
   }

@@ -174,7 +174,11 @@ std::vector<std::string> TakeMapperPassThrough(
 }
 
 int ParseMapperCommand(CLI::App& app, int argc, char** argv,
-                       HierarchicalMapperOptions* options) {
+                       HierarchicalMapperOptions* options,
+                       std::string* log_level) {
+  AddHierarchicalMapperFlags(app, options);
+  AddLogLevelFlag(app, log_level);
+  app.allow_extras();
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -22,11 +22,13 @@ void AddLogLevelFlag(CLI::App& app, std::string* level);
 std::vector<std::string> TakeMapperPassThrough(
     const std::vector<std::string>& remaining);
 
-/// Parses a command that takes the mapper flags and passes unknown
-/// `--Mapper.*` flags to colmap (app.allow_extras() must be set). Returns -1
-/// when the command should go on, else the exit code (help, parse error).
+/// Adds the mapper flags (AddHierarchicalMapperFlags) and --log_level to a
+/// command that has added its own, parses it, passes unknown `--Mapper.*`
+/// flags to colmap and checks the options. Returns -1 when the command
+/// should go on, else the exit code (help, parse error).
 int ParseMapperCommand(CLI::App& app, int argc, char** argv,
-                       HierarchicalMapperOptions* options);
+                       HierarchicalMapperOptions* options,
+                       std::string* log_level);
 
 /// The options as INI text (COLMAP project-file style), for the record.
 std::string OptionsRecord(const CLI::App& app);

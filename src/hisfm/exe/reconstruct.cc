@@ -86,14 +86,11 @@ int RunReconstructCommand(int argc, char** argv) {
   app.add_option("--reference_path", reference_path,
                  "Reference model (same image names) to evaluate against "
                  "and overlay in the report");
-  AddHierarchicalMapperFlags(app, &options);
-  AddLogLevelFlag(app, &log_level);
-  app.allow_extras();
-  if (const int code = ParseMapperCommand(app, argc, argv, &options);
+  if (const int code =
+          ParseMapperCommand(app, argc, argv, &options, &log_level);
       code >= 0) {
     return code;
   }
-  options.Check();
   features.colmap = options.colmap;
   const std::string record = OptionsRecord(app);
   Timer total;
