@@ -164,7 +164,7 @@ int RunDemoCommand(int argc, char** argv) {
   paths.image_path = scene + "/images";
   paths.output_path = workspace + "/hisfm";
   paths.work_path = workspace + "/hisfm_work";
-  paths.options_record = OptionsRecord(app);
+  paths.options_record = OptionsRecord(app, options.mapper_args);
   timer.Restart();
   {
     ColmapLogFollower follower(paths.work_path + "/component0/colmap.log",

@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
+#include "hisfm/exe/option_flags.h"
+#include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/retriangulation.h"
 #include "hisfm/util/error.h"
@@ -84,7 +87,8 @@ int RunEvaluate(int argc, char** argv) {
   app.add_option("--min_model_size", options.min_model_size,
                  "Models with at least this many reference images count as "
                  "parts of an oversplit result")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000000));
   std::string database_path, image_path;
   app.add_option("--database_path", database_path,
                  "Also re-triangulate the largest model's poses from this "
@@ -96,12 +100,15 @@ int RunEvaluate(int argc, char** argv) {
                  "Centre alignment inlier distance, fraction of the scene "
                  "extent")
       ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
   options.Check();
+  if (!output_path.empty()) CheckOutputFile(output_path);
+  if (!database_path.empty()) {
+    { Database probe(database_path); }  // A one-line error before any work.
+    CheckDirectoryExists(image_path, "image folder");
+  }
 
   const std::vector<std::string> model_paths = FindModels(model_path);
   std::vector<Reconstruction> models;
@@ -117,12 +124,14 @@ int RunEvaluate(int argc, char** argv) {
   if (!database_path.empty()) {
     char work[] = "/tmp/hisfm-proxy-XXXXXX";
     ThrowUnless(mkdtemp(work) != nullptr, "cannot create a temporary folder");
+    // Removed however Retriangulate ends.
+    const std::unique_ptr<char, void (*)(char*)> remove_work(work, [](char* p) {
+      std::error_code ec;
+      fs::remove_all(p, ec);
+    });
     const RetriangulationStats stats = Retriangulate(
-        database_path, image_path,
-        model_paths[evaluation.largest_model], work,
+        database_path, image_path, model_paths[evaluation.largest_model], work,
         ColmapRunnerOptions());
-    std::error_code ec;
-    fs::remove_all(work, ec);
     j["retriangulation"] = ToJson(stats);
     proxy_text = StrCat("re-triangulated from the full database: ",
                         stats.points3D, " points, mean reprojection error ",

@@ -45,10 +45,8 @@ int RunFilterPairsCommand(int argc, char** argv) {
                  "builtin verifier: relative inlier coverage scoring 0.5")
       ->capture_default_str();
   AddLogLevelFlag(app, &log_level);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
   std::cout << FilterPairsExhaustively(database_path, image_path, output_path,
                                        options)

@@ -1,10 +1,13 @@
 // Tests of the `hisfm` executable: exit codes, one-line errors, help texts.
 #include <gtest/gtest.h>
+#include <sqlite3.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/test_util.h"
@@ -27,6 +30,17 @@ struct Result {
 Result RunHisfm(const std::string& args, const TempDir& tmp) {
   Result r;
   r.code = RunShell(Hisfm() + " " + args, tmp / "log.txt");
+  r.output = ReadTextFile(tmp / "log.txt");
+  return r;
+}
+
+// Same as RunHisfm, from inside `dir` (for relative paths).
+Result RunHisfmIn(const std::string& dir, const std::string& args,
+                  const TempDir& tmp) {
+  Result r;
+  r.code = RunShell("cd '" + dir + "' && " + fs::absolute(Hisfm()).string() +
+                        " " + args,
+                    tmp / "log.txt");
   r.output = ReadTextFile(tmp / "log.txt");
   return r;
 }
@@ -84,6 +98,152 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
           "--HiSfM.top_k 0",
           tmp);
   EXPECT_NE(bad_option.code, 0);
+}
+
+// Mistyped output and work paths must never delete or replace an input or a
+// user's folder.
+TEST(HisfmCli, OutputsNeverReplaceInputs) {
+  TempDir tmp;
+  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
+                         " --scene street --num_images 12 --seed 1",
+                     tmp)
+                .code,
+            0);
+  const std::string db = tmp / "scene/database.db";
+  const uint64_t before = FileFingerprint(db);
+  fs::create_directories(tmp / "user");
+  std::ofstream(tmp / "user/precious.txt") << "keep\n";
+  const std::string mapper = "mapper --database_path " + db +
+                             " --image_path " + (tmp / "scene/images") +
+                             " --output_path " + (tmp / "out");
+  for (const std::string& command :
+       {"view_graph --database_path " + db + " --output_path " + db,
+        mapper + " --work_path " + (tmp / "scene"),
+        mapper + " --work_path " + (tmp / "user"),
+        mapper + " --work_path " + (tmp / "out/work"),
+        mapper + " --work_path " + (tmp / "user/precious.txt")}) {
+    const Result r = RunHisfm(command, tmp);
+    EXPECT_NE(r.code, 0) << command;
+    EXPECT_EQ(NumLines(r.output), 1u) << r.output;
+    EXPECT_EQ(r.output.rfind("error: ", 0), 0u) << r.output;
+  }
+  EXPECT_EQ(FileFingerprint(db), before);
+  EXPECT_TRUE(fs::is_directory(tmp / "scene/images"));
+  EXPECT_TRUE(fs::exists(tmp / "user/precious.txt"));
+  EXPECT_FALSE(fs::exists(tmp / "out"));
+}
+
+// What colmap would crash on is reported first, in one line.
+TEST(HisfmCli, DatabasesColmapCannotUseAreErrors) {
+  TempDir tmp;
+  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
+                         " --scene street --num_images 12 --seed 1",
+                     tmp)
+                .code,
+            0);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"DELETE FROM keypoints WHERE image_id = 2;", "no keypoints"},
+      {"DELETE FROM cameras;", "not in the cameras table"}};
+  for (const auto& [sql, message] : cases) {
+    const std::string db = tmp / "broken.db";
+    fs::remove(db);
+    fs::copy_file(tmp / "scene/database.db", db);
+    sqlite3* handle = nullptr;
+    ASSERT_EQ(sqlite3_open(db.c_str(), &handle), SQLITE_OK);
+    ASSERT_EQ(sqlite3_exec(handle, sql.c_str(), nullptr, nullptr, nullptr),
+              SQLITE_OK);
+    sqlite3_close(handle);
+    const Result r = RunHisfm(
+        "view_graph --log_level warn --database_path " + db, tmp);
+    EXPECT_NE(r.code, 0) << sql;
+    EXPECT_EQ(NumLines(r.output), 1u) << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+  }
+}
+
+// SIGTERM to hisfm alone while colmap runs: colmap is stopped too, the run
+// ends with 128 + 15 and one line, and neither the output nor its temporary
+// folder is left.
+TEST(HisfmCli, InterruptedMapperLeavesNoOutputAndNoColmap) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
+                         " --scene street --num_images 40 --seed 1",
+                     tmp)
+                .code,
+            0);
+  fs::create_directories(tmp / "results");
+  const std::string out = tmp / "results/out";
+  const std::string script =
+      Hisfm() + " mapper --database_path " + (tmp / "scene/database.db") +
+      " --image_path " + (tmp / "scene/images") + " --output_path " + out +
+      " > " + (tmp / "mapper.txt") + " 2>&1 & P=$!; " +
+      "for i in $(seq 1 1200); do [ -s " + out +
+      "_work/component0/colmap.log ] && break; sleep 0.05; done; " +
+      "sleep 0.3; kill -TERM $P; wait $P; echo $? > " + (tmp / "code.txt") +
+      "; sleep 0.5; pgrep -f \"[c]olmap mapper .*" + out + "_work\" > " +
+      (tmp / "left.txt");
+  RunShell("bash -c '" + script + "'");
+  EXPECT_EQ(ReadTextFile(tmp / "code.txt"), "143\n");
+  const std::string log = ReadTextFile(tmp / "mapper.txt");
+  EXPECT_NE(log.find("error: interrupted by signal 15"), std::string::npos)
+      << log;
+  EXPECT_EQ(ReadTextFile(tmp / "left.txt"), "") << "colmap still running";
+  size_t num_entries = 0;
+  for (const auto& entry : fs::directory_iterator(tmp / "results")) {
+    EXPECT_EQ(entry.path().filename().string(), "out_work");
+    ++num_entries;
+  }
+  EXPECT_EQ(num_entries, 1u);
+}
+
+// The hisfm_options.ini a run writes is read back by --project_path, with
+// absolute paths and the --Mapper.* flags it passed to colmap.
+TEST(HisfmCli, OptionsFileFeedsBack) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  ASSERT_EQ(RunHisfmIn(tmp.path(),
+                       "synth --output_path scene --scene street "
+                       "--num_images 12 --seed 2",
+                       tmp)
+                .code,
+            0);
+  // Relative paths, from the temporary folder.
+  const Result first = RunHisfmIn(
+      tmp.path(),
+      "mapper --database_path scene/database.db --image_path scene/images "
+      "--output_path out1 --HiSfM.top_k 2 --Mapper.init_min_num_inliers 50",
+      tmp);
+  ASSERT_EQ(first.code, 0) << first.output;
+  const std::string record = ReadTextFile(tmp / "out1/hisfm_options.ini");
+  EXPECT_NE(record.find("database_path=\"" + (tmp / "scene/database.db")),
+            std::string::npos)
+      << record;
+  EXPECT_NE(record.find("Mapper.init_min_num_inliers=50"), std::string::npos);
+
+  // From another folder; the command line wins over the file.
+  fs::create_directories(tmp / "elsewhere");
+  const Result second = RunHisfmIn(
+      tmp / "elsewhere",
+      "mapper --project_path " + (tmp / "out1/hisfm_options.ini") +
+          " --output_path " + (tmp / "out2") + " --work_path " +
+          (tmp / "work2") + " --Mapper.ba_local_num_images 5",
+      tmp);
+  ASSERT_EQ(second.code, 0) << second.output;
+  const std::string again = ReadTextFile(tmp / "out2/hisfm_options.ini");
+  EXPECT_NE(again.find("HiSfM.top_k=2"), std::string::npos) << again;
+  const std::string colmap_log =
+      ReadTextFile(tmp / "work2/component0/colmap.log");
+  EXPECT_NE(colmap_log.find("--Mapper.init_min_num_inliers 50"),
+            std::string::npos);
+  EXPECT_NE(colmap_log.find("--Mapper.ba_local_num_images 5"),
+            std::string::npos);
+
+  std::ofstream(tmp / "bad.ini") << "HiSfM.no_such_option=1\n";
+  const Result bad =
+      RunHisfm("mapper --project_path " + (tmp / "bad.ini"), tmp);
+  EXPECT_NE(bad.code, 0);
+  EXPECT_EQ(NumLines(bad.output), 1u) << bad.output;
 }
 
 TEST(HisfmCli, ReconstructNeedsPhotos) {

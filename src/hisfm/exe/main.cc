@@ -7,6 +7,7 @@
 
 #include "hisfm/exe/command.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
 
 namespace hisfm {
 
@@ -21,7 +22,7 @@ void PrintUsage() {
   std::printf(
       "HiSfM: hierarchical, disambiguating structure-from-motion on COLMAP "
       "databases.\n\nUsage: hisfm <command> [options]\n       hisfm <command> "
-      "-h\n\nCommands:\n");
+      "-h (or hisfm help <command>)\n       hisfm --version\n\nCommands:\n");
   for (const auto& [name, info] : CommandRegistry()) {
     std::printf("  %-16s %s\n", name.c_str(), info.description.c_str());
   }
@@ -32,12 +33,20 @@ void PrintUsage() {
 
 int main(int argc, char** argv) {
   using namespace hisfm;
-  if (argc < 2 || std::string(argv[1]) == "-h" ||
-      std::string(argv[1]) == "--help" || std::string(argv[1]) == "help") {
+  const std::string first = argc < 2 ? "" : argv[1];
+  if (first == "--version" || first == "version") {
+    std::printf("hisfm %s\n", HISFM_VERSION);
+    return 0;
+  }
+  // `hisfm help mapper` is `hisfm mapper -h`.
+  const bool help_on_command =
+      first == "help" && argc == 3 && CommandRegistry().count(argv[2]) > 0;
+  if (!help_on_command &&
+      (argc < 2 || first == "-h" || first == "--help" || first == "help")) {
     PrintUsage();
     return argc < 2 ? 1 : 0;
   }
-  const std::string name = argv[1];
+  const std::string name = help_on_command ? argv[2] : first;
   auto it = CommandRegistry().find(name);
   if (it == CommandRegistry().end()) {
     std::fprintf(stderr, "error: unknown command '%s' (see hisfm -h)\n",
@@ -47,9 +56,18 @@ int main(int argc, char** argv) {
   std::string program = std::string("hisfm ") + name;
   std::vector<char*> args;
   args.push_back(program.data());
-  for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
+  std::string help_flag = "-h";
+  if (help_on_command) {
+    args.push_back(help_flag.data());
+  } else {
+    for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
+  }
+  InstallInterruptHandlers();
   try {
     return it->second.run(static_cast<int>(args.size()), args.data());
+  } catch (const Interrupted& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 128 + e.signal();
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 1;

@@ -39,7 +39,7 @@ int RunMapperCommand(int argc, char** argv) {
       code >= 0) {
     return code;
   }
-  paths.options_record = OptionsRecord(app);
+  paths.options_record = OptionsRecord(app, options.mapper_args);
   RunHierarchicalMapper(paths, options);
   const std::string report_path = paths.output_path + "/report.html";
   WriteReport(ReadMapperReportInput(paths.output_path), report_path);
@@ -63,11 +63,10 @@ int RunViewGraphCommand(int argc, char** argv) {
                  "JSON file to write (default: standard output)");
   AddHierarchicalMapperFlags(app, &options);
   AddLogLevelFlag(app, &log_level);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
+  if (!output_path.empty()) CheckOutputFile(output_path);
   const nlohmann::json out =
       ComputeViewGraphJson(database_path, image_path, options);
   if (output_path.empty()) {

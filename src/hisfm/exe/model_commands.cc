@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "hisfm/exe/command.h"
+#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/model.h"
 #include "hisfm/report/model_export.h"
 #include "hisfm/util/error.h"
@@ -46,10 +47,8 @@ int RunModelStats(int argc, char** argv) {
       "hisfm model_stats");
   app.add_option("--input_path", input_path, "Model folder")->required();
   app.add_flag("--json", json, "Print JSON");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
   const std::vector<std::string> folders = ModelFolders(input_path);
   nlohmann::json all = nlohmann::json::array();
@@ -86,10 +85,8 @@ int RunModelConverter(int argc, char** argv) {
   app.add_option("--output_type", output_type, "BIN or TXT")
       ->required()
       ->check(CLI::IsMember({"BIN", "TXT"}, CLI::ignore_case));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
   const Reconstruction model = ReadModel(input_path);
   CheckDirectoryExists(output_path, "output folder");
@@ -137,16 +134,15 @@ int RunModelExport(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no_points", no_points, "Leave out the 3D points");
   app.add_flag("--no_cameras", no_cameras, "Leave out the camera centres");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
   PlyExportOptions options;
   options.binary = format == "binary";
   options.include_points = !no_points;
   options.include_cameras = !no_cameras;
   options.camera_color = ParseColor(camera_color);
+  CheckOutputFile(output_path);
   const Reconstruction model = ReadModel(input_path);
   const PlyExportSummary summary =
       WriteModelPly(model, output_path, options);

@@ -1,6 +1,14 @@
 #include "hisfm/exe/option_flags.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <sstream>
+
 #include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 
 namespace hisfm {
@@ -152,25 +160,67 @@ void AddLogLevelFlag(CLI::App& app, std::string* level) {
   app.parse_complete_callback([level] { SetLogLevel(*level); });
 }
 
+std::map<std::string, std::string> ReadMapperEntries(const std::string& path) {
+  std::map<std::string, std::string> entries;
+  std::istringstream in(ReadTextFile(path));
+  std::string line;
+  while (std::getline(in, line)) {
+    const size_t eq = line.find('=');
+    if (line.rfind("Mapper.", 0) != 0 || eq == std::string::npos) continue;
+    std::string value = line.substr(eq + 1);
+    if (value.size() >= 2 && value.front() == '"' && value.back() == '"') {
+      value = value.substr(1, value.size() - 2);
+    }
+    entries[line.substr(0, eq)] = value;
+  }
+  return entries;
+}
+
 std::vector<std::string> TakeMapperPassThrough(
-    const std::vector<std::string>& remaining) {
+    const std::vector<std::string>& remaining,
+    const std::map<std::string, std::string>& file_entries) {
   std::vector<std::string> out;
+  std::set<std::string> seen;
   for (size_t i = 0; i < remaining.size(); ++i) {
     const std::string& arg = remaining[i];
-    ThrowUnless(arg.rfind("--Mapper.", 0) == 0,
-                StrCat("unknown argument '", arg, "' (see -h)"));
-    const size_t eq = arg.find('=');
-    if (eq != std::string::npos) {
-      out.push_back(arg.substr(0, eq));
-      out.push_back(arg.substr(eq + 1));
-      continue;
+    std::string name = arg;
+    std::string value;
+    if (arg.rfind("--Mapper.", 0) == 0) {
+      const size_t eq = arg.find('=');
+      if (eq != std::string::npos) {
+        name = arg.substr(0, eq);
+        value = arg.substr(eq + 1);
+      } else {
+        ThrowUnless(i + 1 < remaining.size(),
+                    StrCat("missing value for ", arg));
+        value = remaining[++i];
+      }
+    } else if (file_entries.count(arg) > 0) {
+      // A key of the options file that no flag has (CLI11 passes its name).
+      name = "--" + arg;
+      value = file_entries.at(arg);
+    } else {
+      throw Error(StrCat("unknown argument '", arg, "' (see -h)"));
     }
-    ThrowUnless(i + 1 < remaining.size(),
-                StrCat("missing value for ", arg));
-    out.push_back(arg);
-    out.push_back(remaining[++i]);
+    // The command line comes before the options file: its value wins.
+    if (!seen.insert(name).second) continue;
+    out.push_back(name);
+    out.push_back(value);
   }
   return out;
+}
+
+int ParseCommandLine(CLI::App& app, int argc, char** argv) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // Help.
+    std::string message = e.what();
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    std::fprintf(stderr, "error: %s (see -h)\n", message.c_str());
+    return 1;
+  }
+  return -1;
 }
 
 int ParseMapperCommand(CLI::App& app, int argc, char** argv,
@@ -178,19 +228,44 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
                        std::string* log_level) {
   AddHierarchicalMapperFlags(app, options);
   AddLogLevelFlag(app, log_level);
+  app.set_config("--project_path", "",
+                 "Options file (INI), such as the hisfm_options.ini a run "
+                 "writes; flags on the command line win");
+  // "HiSfM.top_k" is one flag's name, not option top_k of a section HiSfM.
+  app.get_config_formatter_base()->parentSeparator('/');
   app.allow_extras();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  app.allow_config_extras(CLI::config_extras_mode::capture);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
-  options->mapper_args = TakeMapperPassThrough(app.remaining());
+  const CLI::Option* project = app.get_config_ptr();
+  options->mapper_args = TakeMapperPassThrough(
+      app.remaining(), project->count() > 0
+                           ? ReadMapperEntries(project->as<std::string>())
+                           : std::map<std::string, std::string>());
   options->Check();
   return -1;
 }
 
-std::string OptionsRecord(const CLI::App& app) {
-  return app.config_to_str(true, false);
+std::string OptionsRecord(CLI::App& app,
+                          const std::vector<std::string>& mapper_args) {
+  // Paths are recorded absolute, so that the file works from anywhere.
+  for (CLI::Option* option : app.get_options()) {
+    const std::string name = option->get_name();
+    if (name.size() < 5 || name.compare(name.size() - 5, 5, "_path") != 0 ||
+        option->count() == 0 || option == app.get_config_ptr()) {
+      continue;
+    }
+    const std::string value = option->as<std::string>();
+    if (value.empty()) continue;
+    option->clear();
+    option->add_result(std::filesystem::absolute(value).string());
+  }
+  std::string record = app.config_to_str(true, false);
+  for (size_t i = 0; i + 1 < mapper_args.size(); i += 2) {
+    record += StrCat(mapper_args[i].substr(2), "=", mapper_args[i + 1], "\n");
+  }
+  return record;
 }
 
 }  // namespace hisfm

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -17,10 +18,21 @@ void AddHierarchicalMapperFlags(CLI::App& app,
 /// Adds --log_level and applies it after parsing.
 void AddLogLevelFlag(CLI::App& app, std::string* level);
 
+/// The `Mapper.*` entries (key without dashes, value) of an options file.
+std::map<std::string, std::string> ReadMapperEntries(const std::string& path);
+
 /// Splits CLI11's unparsed arguments into `--Mapper.*` pass-through pairs
-/// (for colmap mapper); throws hisfm::Error on any other unknown argument.
+/// (for colmap mapper): command-line flags, then the keys of the options file
+/// that no flag has, with their values from `file_entries` (the command line
+/// wins over the file). Throws hisfm::Error on any other unknown argument.
 std::vector<std::string> TakeMapperPassThrough(
-    const std::vector<std::string>& remaining);
+    const std::vector<std::string>& remaining,
+    const std::map<std::string, std::string>& file_entries = {});
+
+/// Parses a command line. Help prints the help (exit code 0); a parse error
+/// prints one line, "error: ... (see -h)", on stderr (exit code 1). Returns
+/// -1 when the command should go on, else the exit code.
+int ParseCommandLine(CLI::App& app, int argc, char** argv);
 
 /// Adds the mapper flags (AddHierarchicalMapperFlags) and --log_level to a
 /// command that has added its own, parses it, passes unknown `--Mapper.*`
@@ -30,7 +42,11 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
                        HierarchicalMapperOptions* options,
                        std::string* log_level);
 
-/// The options as INI text (COLMAP project-file style), for the record.
-std::string OptionsRecord(const CLI::App& app);
+/// The options as INI text (COLMAP project-file style), for the record and
+/// to be read back with --project_path: every option, paths made absolute,
+/// and the `--Mapper.*` pass-through flags (`mapper_args`, name and value
+/// pairs) as `Mapper.*` keys.
+std::string OptionsRecord(CLI::App& app,
+                          const std::vector<std::string>& mapper_args);
 
 }  // namespace hisfm

@@ -92,7 +92,10 @@ int RunReconstructCommand(int argc, char** argv) {
     return code;
   }
   features.colmap = options.colmap;
-  const std::string record = OptionsRecord(app);
+  if (!reference_path.empty()) {
+    CheckDirectoryExists(reference_path, "reference model");
+  }
+  const std::string record = OptionsRecord(app, options.mapper_args);
   Timer total;
 
   // Stages 1-3: scan, features, matching.
@@ -229,14 +232,13 @@ int RunReportCommand(int argc, char** argv) {
   app.add_option("--html_path", html_path,
                  "HTML file to write (default OUTPUT/report.html)");
   AddLogLevelFlag(app, &log_level);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
+  if (html_path.empty()) html_path = output_path + "/report.html";
+  CheckOutputFile(html_path);
   ReportInput input = ReadMapperReportInput(output_path);
   AddReference(reference_path, &input);
-  if (html_path.empty()) html_path = output_path + "/report.html";
   WriteReport(input, html_path);
   HISFM_LOG_INFO("report written to {}", html_path);
   return 0;

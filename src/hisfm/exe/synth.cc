@@ -4,6 +4,7 @@
 #include <string>
 
 #include "hisfm/exe/command.h"
+#include "hisfm/exe/option_flags.h"
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
@@ -86,14 +87,10 @@ int RunSynth(int argc, char** argv) {
   app.add_option("--colmap_path", options.colmap_path,
                  "COLMAP executable (colmap mode)")
       ->capture_default_str();
-  app.add_option("--log_level", log_level, "trace, debug, info, warn, error")
-      ->capture_default_str();
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+  AddLogLevelFlag(app, &log_level);
+  if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
+    return code;
   }
-  SetLogLevel(log_level);
   options.Check();
   WriteSyntheticDataset(options, output_path);
   return 0;

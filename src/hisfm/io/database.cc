@@ -132,15 +132,12 @@ DatabaseCamera SimplePinholeCamera(CameraId camera_id, uint64_t width,
 Database::Database(const std::string& path)
     : path_(path), statements_(std::make_unique<CachedStatements>()) {
   CheckFileReadable(path, "database");
-  const int rc =
-      sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr);
-  if (rc != SQLITE_OK) {
-    const std::string msg = db_ ? sqlite3_errmsg(db_) : "cannot open";
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw Error(StrCat("cannot open database ", path, ": ", msg));
+  std::string error;
+  SqliteConnection connection = OpenReadOnlyConnection(path, &error);
+  if (!connection) {
+    throw Error(StrCat("cannot open database ", path, ": ", error));
   }
-  sqlite3_busy_timeout(db_, 5000);
+  db_ = connection.release();
   // No memory-mapped reads: mapped pages count as the process's resident
   // memory (SQLite maps up to 2 GB), and on a warm page cache they save only
   // about a quarter of a full scan of the pair table (0.63 s against 0.82 s
@@ -634,19 +631,8 @@ void WriteFilteredDatabase(const std::string& source_path,
   try {
     for (const std::string& sql : ColmapSchemaStatements()) SqliteExec(db, sql);
     // Attach the source read-only through a URI so it can never be written.
-    std::string uri = "file:";
-    for (char c : fs::absolute(source_path).string()) {
-      if (c == '%' || c == '?' || c == '#') {
-        char buf[4];
-        std::snprintf(buf, sizeof(buf), "%%%02X",
-                      static_cast<unsigned char>(c));
-        uri += buf;
-      } else {
-        uri += c;
-      }
-    }
-    uri += "?mode=ro";
-    SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(uri) + " AS src;");
+    SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(ReadOnlyUri(source_path)) +
+                       " AS src;");
     SqliteExec(db, "BEGIN;");
     SqliteExec(db, "INSERT INTO cameras SELECT * FROM src.cameras;");
     SqliteExec(db, "INSERT INTO images SELECT * FROM src.images;");

@@ -4,6 +4,7 @@
 #include <sqlite3.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <random>
 #include <set>
 
@@ -306,6 +307,45 @@ TEST(Database, FilteredCopyKeepsOnlyChosenPairsAndLeavesSourceIntact) {
   EXPECT_EQ(out.ReadMatches(3, 5).size(),
             Database(src).ReadMatches(3, 5).size());
   EXPECT_TRUE(out.ReadMatches(1, 3).empty());
+}
+
+// COLMAP writes its databases in WAL mode. Reading one must leave nothing
+// beside it (no -shm or -wal file), so that read-only folders work and input
+// folders stay as they were; a pending log must still be read.
+TEST(Database, ReadsWalDatabasesWithoutTouchingTheirFolder) {
+  TempDir tmp;
+  const std::string path = tmp / "wal.db";
+  WriteRandomDatabase(path, 5, 3);
+  sqlite3* writer = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &writer), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(writer, "PRAGMA journal_mode=WAL;", nullptr, nullptr,
+                         nullptr),
+            SQLITE_OK);
+  ASSERT_EQ(sqlite3_close(writer), SQLITE_OK);
+  ASSERT_FALSE(std::filesystem::exists(path + "-wal"));
+  const uint64_t before = FileFingerprint(path);
+  {
+    Database db(path);
+    EXPECT_EQ(db.ReadImages().size(), 5u);
+    EXPECT_EQ(db.ReadVerifiedPairs(1).size(), 10u);
+    WriteFilteredDatabase(path, tmp / "out.db", {ImagePair(1, 2)});
+    EXPECT_FALSE(std::filesystem::exists(path + "-wal"));
+    EXPECT_FALSE(std::filesystem::exists(path + "-shm"));
+  }
+  EXPECT_EQ(FileFingerprint(path), before);
+  EXPECT_EQ(Database(tmp / "out.db").ReadVerifiedPairs(1).size(), 1u);
+
+  // A writer that has not checkpointed yet: its log holds a new image.
+  ASSERT_EQ(sqlite3_open(path.c_str(), &writer), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(writer,
+                         "PRAGMA wal_autocheckpoint=0; INSERT INTO images "
+                         "(image_id, name, camera_id) VALUES (6, 'new.jpg', "
+                         "1);",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK);
+  ASSERT_TRUE(std::filesystem::exists(path + "-wal"));
+  EXPECT_EQ(Database(path).ReadImages().size(), 6u);
+  sqlite3_close(writer);
 }
 
 TEST(Database, SchemaMatchesColmapsOwn) {

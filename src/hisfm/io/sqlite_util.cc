@@ -1,5 +1,8 @@
 #include "hisfm/io/sqlite_util.h"
 
+#include <cstdio>
+#include <filesystem>
+
 namespace hisfm {
 
 SqliteStatement::SqliteStatement(sqlite3* db, const std::string& sql)
@@ -24,12 +27,36 @@ void SqliteStatement::Reset() {
   sqlite3_clear_bindings(stmt_);
 }
 
-SqliteConnection OpenReadOnlyConnection(const std::string& path) {
+std::string ReadOnlyUri(const std::string& path) {
+  const std::string absolute = std::filesystem::absolute(path).string();
+  std::string uri = "file:";
+  for (char c : absolute) {
+    if (c == '%' || c == '?' || c == '#') {
+      char buf[4];
+      std::snprintf(buf, sizeof(buf), "%%%02X", static_cast<unsigned char>(c));
+      uri += buf;
+    } else {
+      uri += c;
+    }
+  }
+  std::error_code ec;
+  const std::string wal = absolute + "-wal";
+  const bool has_log = std::filesystem::exists(wal, ec) &&
+                       std::filesystem::file_size(wal, ec) > 0;
+  return uri + (has_log ? "?mode=ro" : "?mode=ro&immutable=1");
+}
+
+SqliteConnection OpenReadOnlyConnection(const std::string& path,
+                                        std::string* error) {
   sqlite3* db = nullptr;
-  const int rc =
-      sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr);
+  const int rc = sqlite3_open_v2(ReadOnlyUri(path).c_str(), &db,
+                                 SQLITE_OPEN_READONLY | SQLITE_OPEN_URI,
+                                 nullptr);
   SqliteConnection connection(db);
-  if (rc != SQLITE_OK) return nullptr;
+  if (rc != SQLITE_OK) {
+    if (error) *error = db ? sqlite3_errmsg(db) : "cannot open";
+    return nullptr;
+  }
   sqlite3_busy_timeout(db, 5000);
   return connection;
 }

@@ -39,9 +39,17 @@ struct SqliteCloser {
 /// A connection closed on destruction.
 using SqliteConnection = std::unique_ptr<sqlite3, SqliteCloser>;
 
-/// Opens a second, read-only connection to a database already opened
-/// elsewhere (5 s busy timeout); null if it cannot be opened.
-SqliteConnection OpenReadOnlyConnection(const std::string& path);
+/// The URI that opens `path` read-only. Without a write-ahead log beside
+/// the file (a database closed cleanly, COLMAP's in WAL mode included) it is
+/// opened as immutable: SQLite then creates no -shm or -wal file next to it
+/// and needs no write access to its folder. With a log (a writer is still
+/// at work, or crashed) it is opened normally, so that the log is read.
+std::string ReadOnlyUri(const std::string& path);
+
+/// Opens a database read-only through ReadOnlyUri (5 s busy timeout); null
+/// if it cannot be opened, with SQLite's message in `error` if given.
+SqliteConnection OpenReadOnlyConnection(const std::string& path,
+                                        std::string* error = nullptr);
 
 /// Executes SQL without results; throws Error naming `context` on failure.
 void SqliteExec(sqlite3* db, const std::string& sql);

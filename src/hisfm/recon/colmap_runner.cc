@@ -7,9 +7,11 @@
 
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 
@@ -23,9 +25,11 @@ void ColmapRunnerOptions::Check() const {
 
 namespace {
 
-// Spawns `argv` with stdout/stderr to `log_fd`; returns the exit status, or
-// -1 if it could not start (errno in *spawn_error).
-int Spawn(const std::vector<std::string>& argv, int log_fd, int* spawn_error) {
+// Spawns `argv` with stdout/stderr to `log_fd` and the environment `env`;
+// returns the exit status, or -1 if it could not start (errno in
+// *spawn_error).
+int Spawn(const std::vector<std::string>& argv,
+          const std::vector<std::string>& env, int log_fd, int* spawn_error) {
   std::vector<char*> cargs;
   for (const std::string& a : argv) cargs.push_back(const_cast<char*>(a.c_str()));
   cargs.push_back(nullptr);
@@ -35,20 +39,45 @@ int Spawn(const std::vector<std::string>& argv, int log_fd, int* spawn_error) {
   posix_spawn_file_actions_adddup2(&actions, log_fd, STDERR_FILENO);
   posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null",
                                    O_RDONLY, 0);
+  std::vector<char*> cenv;
+  for (const std::string& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
+  cenv.push_back(nullptr);
   pid_t pid = 0;
   const int rc = posix_spawnp(&pid, cargs[0], &actions, nullptr, cargs.data(),
-                              environ);
+                              cenv.data());
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
     *spawn_error = rc;
     return -1;
   }
+  SetInterruptibleChild(pid);
   int status = 0;
-  while (waitpid(pid, &status, 0) < 0) {
-    if (errno != EINTR) return -1;
+  pid_t waited = 0;
+  while ((waited = waitpid(pid, &status, 0)) < 0 && errno == EINTR) {
   }
+  SetInterruptibleChild(0);
+  if (waited < 0) return -1;
   if (WIFEXITED(status)) return WEXITSTATUS(status);
   return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+// This process's environment, plus GLOG_log_dir set to the folder of
+// `log_path` (unless set already): colmap's own log files (glog) then go
+// next to the log hisfm keeps, not into /tmp, where every run would leave
+// two.
+std::vector<std::string> ColmapEnvironment(const std::string& log_path) {
+  std::vector<std::string> env;
+  bool has_log_dir = false;
+  for (char** e = environ; *e != nullptr; ++e) {
+    env.emplace_back(*e);
+    has_log_dir |= env.back().rfind("GLOG_log_dir=", 0) == 0;
+  }
+  if (!has_log_dir) {
+    const std::string dir =
+        std::filesystem::absolute(log_path).parent_path().string();
+    env.push_back("GLOG_log_dir=" + dir);
+  }
+  return env;
 }
 
 std::string JoinCommand(const std::vector<std::string>& argv) {
@@ -85,10 +114,12 @@ std::string CheckColmapAvailable(const ColmapRunnerOptions& options) {
   const int fd = mkstemp(path);
   ThrowUnless(fd >= 0, "cannot create a temporary file in /tmp");
   int spawn_error = 0;
-  const int status = Spawn({options.colmap_path, "help"}, fd, &spawn_error);
+  const int status = Spawn({options.colmap_path, "help"},
+                           ColmapEnvironment(path), fd, &spawn_error);
   close(fd);
   const std::string head = TailOfFile(path, 1000);
   unlink(path);
+  ThrowIfInterrupted();
   ThrowUnless(status >= 0,
               StrCat("colmap not found: cannot run '", options.colmap_path,
                      "' (", std::strerror(spawn_error),
@@ -117,8 +148,11 @@ double RunColmap(const ColmapRunnerOptions& options,
   }
   Timer timer;
   int spawn_error = 0;
-  const int status = Spawn(argv, fd, &spawn_error);
+  ThrowIfInterrupted();
+  const int status = Spawn(argv, ColmapEnvironment(log_path), fd, &spawn_error);
   close(fd);
+  // A colmap stopped by Ctrl-C or SIGTERM is an interruption, not a failure.
+  ThrowIfInterrupted();
   ThrowUnless(status >= 0, StrCat("colmap not found: cannot run '",
                                   options.colmap_path,
                                   "': ", std::strerror(spawn_error)));

@@ -4,12 +4,14 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <unordered_set>
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
@@ -85,6 +87,34 @@ struct LoadedInput {
   nlohmann::json pair_filter;
 };
 
+// Throws a one-line Error for what colmap would crash on: an image whose
+// camera is missing, or an image of a verified pair without keypoints.
+void CheckImagesUsable(const Database& database,
+                       const std::vector<DatabaseImage>& images,
+                       const ViewGraph& graph) {
+  std::unordered_set<CameraId> cameras;
+  for (const DatabaseCamera& camera : database.ReadCameras()) {
+    cameras.insert(camera.camera_id);
+  }
+  const std::unordered_map<ImageId, size_t> num_keypoints =
+      database.ReadNumKeypoints();
+  for (const DatabaseImage& im : images) {
+    ThrowUnless(cameras.count(im.camera_id) > 0,
+                StrCat("database error: image ", im.image_id, " (", im.name,
+                       ") refers to camera ", im.camera_id,
+                       ", which is not in the cameras table: ",
+                       database.path()));
+    auto it = num_keypoints.find(im.image_id);
+    const bool paired =
+        graph.HasImage(im.image_id) &&
+        !graph.IncidentEdges(graph.IndexOf(im.image_id)).empty();
+    ThrowUnless(!paired || (it != num_keypoints.end() && it->second > 0),
+                StrCat("database error: image ", im.image_id, " (", im.name,
+                       ") has verified pairs but no keypoints: ",
+                       database.path()));
+  }
+}
+
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
                                   const std::string& image_path,
                                   const HierarchicalMapperOptions& options) {
@@ -92,9 +122,8 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   Timer timer;
   in.database = std::make_unique<Database>(database_path);
   LogHeading("Reading database");
-  for (const DatabaseImage& im : in.database->ReadImages()) {
-    in.names[im.image_id] = im.name;
-  }
+  const std::vector<DatabaseImage> images = in.database->ReadImages();
+  for (const DatabaseImage& im : images) in.names[im.image_id] = im.name;
   ThrowUnless(!in.names.empty(),
               StrCat("database has no images: ", database_path));
   in.graph = ViewGraph::FromDatabase(*in.database, options.min_num_matches);
@@ -102,11 +131,13 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
               StrCat("database has no verified image pairs with at least ",
                      options.min_num_matches, " inliers (run colmap's "
                      "matcher first): ", database_path));
+  CheckImagesUsable(*in.database, images, in.graph);
   in.read_seconds = timer.ElapsedSeconds();
   HISFM_LOG_INFO("{} images, {} verified pairs ({:.2f} s)",
                  in.graph.NumImages(), in.graph.NumEdges(), in.read_seconds);
   in.num_verified_pairs = in.graph.NumEdges();
   if (options.verifier.UsesPairFilter()) {
+    ThrowIfInterrupted();
     LogHeading("Removing pairs explained by repeated structure");
     PairFilterResult filtered = FilterStrongestPairs(
         *in.database, in.graph, options.filter_top_pairs,
@@ -123,6 +154,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   }
 
   timer.Restart();
+  ThrowIfInterrupted();
   LogHeading("Building the hierarchy");
   const Database& db = *in.database;
   in.hierarchy = BuildHierarchy(
@@ -266,22 +298,34 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   CheckFileReadable(paths.database_path, "database");
   CheckDirectoryExists(paths.image_path, "image folder");
   ThrowUnless(!paths.output_path.empty(), "--output_path is required");
-  ThrowUnless(IsMissingOrEmptyDirectory(paths.output_path),
-              StrCat("output folder is not empty: ", paths.output_path));
+  // "out/", "./out" and "out" name one folder: normalized before the work
+  // folder's name is derived from it.
+  const std::string output_path = NormalizePath(paths.output_path);
+  std::error_code ec;
+  ThrowUnless(
+      !fs::exists(output_path, ec) || fs::is_directory(output_path, ec),
+      StrCat("output path is a file, not a folder: ", output_path));
+  ThrowUnless(IsMissingOrEmptyDirectory(output_path),
+              StrCat("output folder is not empty: ", output_path));
+  const std::string work = NormalizePath(
+      paths.work_path.empty() ? output_path + "_work" : paths.work_path);
+  ThrowUnless(!IsSameOrInside(work, output_path) &&
+                  !IsSameOrInside(output_path, work),
+              StrCat("--work_path ", work, " and --output_path ", output_path,
+                     " must not contain each other"));
+  for (const std::string& input : {paths.database_path, paths.image_path}) {
+    ThrowUnless(!IsSameOrInside(input, work),
+                StrCat("--work_path ", work, " holds the input ", input));
+  }
   CheckColmapAvailable(options.colmap);
   { Database probe(paths.database_path); }  // Fails early on a non-COLMAP file.
+  PrepareWorkDirectory(work);
 
-  AtomicDirectory output(paths.output_path);
+  AtomicDirectory output(output_path);
   LoadedInput in =
       LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
   const Hierarchy& h = in.hierarchy;
 
-  const std::string work =
-      paths.work_path.empty() ? paths.output_path + "_work" : paths.work_path;
-  std::error_code ec;
-  fs::remove_all(work, ec);
-  fs::create_directories(work, ec);
-  ThrowUnless(!ec, StrCat("cannot create work folder ", work));
   {
     std::ofstream out(work + "/view_graph.json");
     out << HierarchyToJson(h, in.graph, in.names).dump(1);
@@ -304,6 +348,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     fs::create_directories(dir + "/attached", ec);
     fs::create_directories(dir + "/refined", ec);
     const std::string log = dir + "/colmap.log";
+    ThrowIfInterrupted();
     LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
                       comp.skeleton_images.size(), " in the scaffold"));
 

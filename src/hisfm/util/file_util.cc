@@ -33,6 +33,48 @@ bool IsMissingOrEmptyDirectory(const std::string& path) {
   return fs::is_directory(path, ec) && fs::is_empty(path, ec);
 }
 
+std::string NormalizePath(const std::string& path) {
+  std::error_code ec;
+  fs::path normal = fs::weakly_canonical(fs::absolute(path), ec);
+  if (ec) normal = fs::absolute(path).lexically_normal();
+  std::string out = normal.string();
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+  return out;
+}
+
+bool IsSameOrInside(const std::string& path, const std::string& folder) {
+  const std::string p = NormalizePath(path);
+  const std::string f = NormalizePath(folder);
+  if (p == f) return true;
+  const std::string prefix = f == "/" ? f : f + "/";
+  return p.compare(0, prefix.size(), prefix) == 0;
+}
+
+namespace {
+constexpr char kWorkMarker[] = ".hisfm_work";
+}  // namespace
+
+void PrepareWorkDirectory(const std::string& path) {
+  std::error_code ec;
+  if (fs::exists(path, ec)) {
+    ThrowUnless(fs::is_directory(path, ec),
+                StrCat("work path is a file, not a folder: ", path));
+    ThrowUnless(fs::is_empty(path, ec) ||
+                    fs::exists(fs::path(path) / kWorkMarker, ec),
+                StrCat("work folder is not empty and was not made by hisfm: ",
+                       path, " (choose another --work_path)"));
+    fs::remove_all(path, ec);
+    ThrowUnless(!ec, StrCat("cannot clear ", path, ": ", ec.message()));
+  }
+  fs::create_directories(path, ec);
+  ThrowUnless(!ec, StrCat("cannot create work folder ", path, ": ",
+                          ec.message()));
+  std::ofstream marker(fs::path(path) / kWorkMarker);
+  marker << "Intermediate files of a hisfm run; hisfm empties this folder "
+            "when it runs again with the same work path.\n";
+  ThrowUnless(marker.good(), StrCat("cannot write in work folder ", path));
+}
+
 namespace {
 std::string RandomSuffix() {
   std::random_device rd;
@@ -76,18 +118,41 @@ void AtomicDirectory::Commit() {
   committed_ = true;
 }
 
+void CheckOutputFile(const std::string& path) {
+  std::error_code ec;
+  ThrowUnless(!fs::is_directory(path, ec),
+              StrCat("output is a folder, not a file: ", path));
+  if (fs::is_regular_file(path, ec)) {
+    std::ifstream existing(path, std::ios::binary);
+    char header[16] = {};
+    existing.read(header, sizeof(header));
+    ThrowUnless(std::string(header, existing.gcount()) !=
+                    std::string("SQLite format 3\0", 16),
+                StrCat("refusing to overwrite the database ", path,
+                       " with an output"));
+  }
+}
+
 void WriteFileAtomically(const std::string& path, const std::string& contents) {
+  CheckOutputFile(path);
+  std::error_code ec;
   const std::string temp = path + ".tmp-" + RandomSuffix();
   {
     std::ofstream out(temp, std::ios::binary | std::ios::trunc);
     ThrowUnless(out.good(), StrCat("cannot write ", temp));
     out << contents;
-    ThrowUnless(out.good(), StrCat("cannot write ", temp));
+    if (!out.good()) {
+      out.close();
+      fs::remove(temp, ec);
+      throw Error(StrCat("cannot write ", temp));
+    }
   }
-  std::error_code ec;
   fs::rename(temp, path, ec);
-  ThrowUnless(!ec, StrCat("cannot rename ", temp, " to ", path, ": ",
-                          ec.message()));
+  if (ec) {
+    const std::string message = ec.message();
+    fs::remove(temp, ec);
+    throw Error(StrCat("cannot rename ", temp, " to ", path, ": ", message));
+  }
 }
 
 std::string ReadTextFile(const std::string& path) {

@@ -15,6 +15,20 @@ void CheckDirectoryExists(const std::string& path, const std::string& what);
 /// True if `path` does not exist or is an empty directory.
 bool IsMissingOrEmptyDirectory(const std::string& path);
 
+/// `path` made absolute and lexically normal, with the symbolic links of its
+/// existing part resolved and without a trailing separator ("out/" and
+/// "./out" give the same result).
+std::string NormalizePath(const std::string& path);
+
+/// True if `path` is `folder` or lies below it (both normalized first).
+bool IsSameOrInside(const std::string& path, const std::string& folder);
+
+/// Empties (or creates) a folder for a run's intermediate files and marks it
+/// as such. A folder that is not empty is only emptied if an earlier call
+/// marked it; anything else (a user's folder, a file) is refused with an
+/// Error, so that a mistyped path never deletes data.
+void PrepareWorkDirectory(const std::string& path);
+
 /// A folder that is filled under a temporary name next to its final path and
 /// renamed into place by Commit(), so that an interrupted run never leaves a
 /// half-written result at `final_path`. Without Commit() the temporary folder
@@ -38,7 +52,13 @@ class AtomicDirectory {
   bool committed_ = false;
 };
 
-/// Writes `contents` to `path` through a temporary file and a rename.
+/// Throws Error if `path` is a folder or a SQLite database: no file output
+/// of HiSfM replaces one, so such a path is a mistake (an input given as the
+/// output). Commands call it before their work, WriteFileAtomically again.
+void CheckOutputFile(const std::string& path);
+
+/// Writes `contents` to `path` through a temporary file and a rename, after
+/// CheckOutputFile.
 void WriteFileAtomically(const std::string& path, const std::string& contents);
 
 /// Reads a whole text file; throws Error if it cannot be read.

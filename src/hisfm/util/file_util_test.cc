@@ -1,0 +1,93 @@
+#include "hisfm/util/file_util.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/test_util.h"
+
+namespace hisfm {
+namespace {
+
+namespace fs = std::filesystem;
+
+size_t NumEntries(const std::string& folder) {
+  size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    (void)entry;
+    ++n;
+  }
+  return n;
+}
+
+TEST(FileUtil, NormalizePathNamesOneFolderOneWay) {
+  TempDir tmp("hisfm-file-util");
+  fs::create_directories(tmp / "out");
+  const std::string out = NormalizePath(tmp / "out");
+  EXPECT_EQ(NormalizePath(tmp / "out/"), out);
+  EXPECT_EQ(NormalizePath(tmp / "./out"), out);
+  EXPECT_EQ(NormalizePath(tmp / "out/../out/."), out);
+  EXPECT_EQ(out.back(), 't');
+  // A link to the folder is the folder; a missing path is normalized too.
+  fs::create_directory_symlink(tmp / "out", tmp / "link");
+  EXPECT_EQ(NormalizePath(tmp / "link"), out);
+  EXPECT_EQ(NormalizePath(tmp / "link/new/"), out + "/new");
+  EXPECT_EQ(NormalizePath("/"), "/");
+}
+
+TEST(FileUtil, IsSameOrInside) {
+  TempDir tmp("hisfm-file-util");
+  EXPECT_TRUE(IsSameOrInside(tmp / "a", tmp / "a/"));
+  EXPECT_TRUE(IsSameOrInside(tmp / "a/b/c.db", tmp / "a"));
+  EXPECT_FALSE(IsSameOrInside(tmp / "ab", tmp / "a"));
+  EXPECT_FALSE(IsSameOrInside(tmp / "a", tmp / "a/b"));
+  EXPECT_TRUE(IsSameOrInside(tmp.path(), "/"));
+}
+
+TEST(FileUtil, PrepareWorkDirectoryNeverDeletesAUsersFolder) {
+  TempDir tmp("hisfm-file-util");
+  // A user's folder with content, and a file: refused, left as they were.
+  fs::create_directories(tmp / "user");
+  WriteFileAtomically(tmp / "user/precious.txt", "keep\n");
+  EXPECT_THROW(PrepareWorkDirectory(tmp / "user"), Error);
+  EXPECT_EQ(ReadTextFile(tmp / "user/precious.txt"), "keep\n");
+  WriteFileAtomically(tmp / "file", "keep\n");
+  EXPECT_THROW(PrepareWorkDirectory(tmp / "file"), Error);
+  EXPECT_EQ(ReadTextFile(tmp / "file"), "keep\n");
+
+  // A missing or empty folder is made a work folder; a work folder is
+  // emptied on the next run.
+  PrepareWorkDirectory(tmp / "work");
+  EXPECT_EQ(NumEntries(tmp / "work"), 1u);  // The marker.
+  WriteFileAtomically(tmp / "work/old.txt", "old\n");
+  fs::create_directories(tmp / "work/component0");
+  PrepareWorkDirectory(tmp / "work");
+  EXPECT_EQ(NumEntries(tmp / "work"), 1u);
+  fs::create_directories(tmp / "empty");
+  PrepareWorkDirectory(tmp / "empty");
+  EXPECT_EQ(NumEntries(tmp / "empty"), 1u);
+}
+
+TEST(FileUtil, WriteFileAtomicallyRefusesFoldersAndDatabases) {
+  TempDir tmp("hisfm-file-util");
+  fs::create_directories(tmp / "folder");
+  EXPECT_THROW(WriteFileAtomically(tmp / "folder", "x"), Error);
+  {
+    std::ofstream db(tmp / "input.db", std::ios::binary);
+    db << std::string("SQLite format 3\0rest of the header", 34);
+  }
+  EXPECT_THROW(WriteFileAtomically(tmp / "input.db", "{}\n"), Error);
+  EXPECT_EQ(fs::file_size(tmp / "input.db"), 34u);
+  // Ordinary files are replaced, and no temporary file is left behind, also
+  // when writing fails (a missing parent folder).
+  WriteFileAtomically(tmp / "out.json", "1\n");
+  WriteFileAtomically(tmp / "out.json", "2\n");
+  EXPECT_EQ(ReadTextFile(tmp / "out.json"), "2\n");
+  EXPECT_THROW(WriteFileAtomically(tmp / "missing/out.json", "3\n"), Error);
+  EXPECT_EQ(NumEntries(tmp.path()), 3u);
+}
+
+}  // namespace
+}  // namespace hisfm
