@@ -41,8 +41,9 @@ std::string ReadOnlyUri(const std::string& path) {
   }
   std::error_code ec;
   const std::string wal = absolute + "-wal";
-  const bool has_log = std::filesystem::exists(wal, ec) &&
-                       std::filesystem::file_size(wal, ec) > 0;
+  const bool has_log = (std::filesystem::exists(wal, ec) &&
+                        std::filesystem::file_size(wal, ec) > 0) ||
+                       std::filesystem::exists(absolute + "-journal", ec);
   return uri + (has_log ? "?mode=ro" : "?mode=ro&immutable=1");
 }
 

@@ -42,8 +42,9 @@ using SqliteConnection = std::unique_ptr<sqlite3, SqliteCloser>;
 /// The URI that opens `path` read-only. Without a write-ahead log beside
 /// the file (a database closed cleanly, COLMAP's in WAL mode included) it is
 /// opened as immutable: SQLite then creates no -shm or -wal file next to it
-/// and needs no write access to its folder. With a log (a writer is still
-/// at work, or crashed) it is opened normally, so that the log is read.
+/// and needs no write access to its folder. With a log or a rollback
+/// journal (a writer is still at work, or crashed) it is opened normally, so
+/// that SQLite reads the log and takes its locks.
 std::string ReadOnlyUri(const std::string& path);
 
 /// Opens a database read-only through ReadOnlyUri (5 s busy timeout); null
