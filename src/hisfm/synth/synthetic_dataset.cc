@@ -1,5 +1,7 @@
 #include "hisfm/synth/synthetic_dataset.h"
 
+#include <sys/wait.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -57,8 +59,21 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
       " > ", ShellQuote(log_path), " 2>&1");
   HISFM_LOG_INFO("Running {}", command);
   const int status = std::system(command.c_str());
-  ThrowUnless(status == 0, StrCat("colmap matches_importer failed (status ",
-                                  status, "); see ", log_path));
+  if (status == 0) return;
+  // The folder is temporary and removed on failure: the log's last line
+  // goes into the message.
+  std::string last_line;
+  {
+    std::ifstream log(log_path);
+    for (std::string line; std::getline(log, line);) {
+      if (!line.empty()) last_line = line;
+    }
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  ThrowUnless(code != 127, StrCat("colmap not found: cannot run '",
+                                  options.colmap_path, "'"));
+  throw Error(StrCat("colmap matches_importer failed (exit ", code,
+                     "): ", last_line));
 }
 
 }  // namespace
