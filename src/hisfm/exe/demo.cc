@@ -19,6 +19,7 @@
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 
@@ -120,6 +121,8 @@ int RunDemoCommand(int argc, char** argv) {
       code >= 0) {
     return code;
   }
+  // Ctrl-C stops colmap and removes the temporary outputs.
+  InterruptScope interrupt_scope;
   synth.Check();
   CheckColmapAvailable(options.colmap);
   workspace = fs::absolute(workspace).lexically_normal().string();

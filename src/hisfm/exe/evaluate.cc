@@ -16,6 +16,7 @@
 #include "hisfm/recon/retriangulation.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/interrupt.h"
 
 namespace fs = std::filesystem;
 
@@ -122,6 +123,7 @@ int RunEvaluate(int argc, char** argv) {
   nlohmann::json j = ToJson(evaluation);
   std::string proxy_text;
   if (!database_path.empty()) {
+    InterruptScope interrupt_scope;  // Stops colmap, removes `work`.
     char work[] = "/tmp/hisfm-proxy-XXXXXX";
     ThrowUnless(mkdtemp(work) != nullptr, "cannot create a temporary folder");
     // Removed however Retriangulate ends.

@@ -195,6 +195,23 @@ TEST(HisfmCli, InterruptedMapperLeavesNoOutputAndNoColmap) {
     ++num_entries;
   }
   EXPECT_EQ(num_entries, 1u);
+
+  // Commands without colmap keep the default action: SIGTERM ends them, and
+  // an ignored SIGHUP (nohup) stays ignored in the mapper too.
+  const std::string synth =
+      Hisfm() + " synth --output_path " + (tmp / "big") +
+      " --scene street --num_images 20000 > /dev/null 2>&1 & P=$!; " +
+      "sleep 0.3; kill -TERM $P; wait $P; echo $? > " + (tmp / "code.txt");
+  RunShell("bash -c '" + synth + "'");
+  EXPECT_EQ(ReadTextFile(tmp / "code.txt"), "143\n");
+  const std::string nohup =
+      "trap \"\" HUP; " + Hisfm() + " mapper --database_path " +
+      (tmp / "scene/database.db") + " --image_path " +
+      (tmp / "scene/images") + " --output_path " + (tmp / "results/nohup") +
+      " > /dev/null 2>&1 & P=$!; sleep 0.5; kill -HUP $P; wait $P; echo $? > " +
+      (tmp / "code.txt");
+  RunShell("bash -c '" + nohup + "'");
+  EXPECT_EQ(ReadTextFile(tmp / "code.txt"), "0\n");
 }
 
 // The hisfm_options.ini a run writes is read back by --project_path, with

@@ -1,5 +1,6 @@
 // Entry point of the `hisfm` command: dispatches to the registered
 // sub-commands and turns errors into one line and a non-zero exit.
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -39,8 +40,7 @@ int main(int argc, char** argv) {
     return 0;
   }
   // `hisfm help mapper` is `hisfm mapper -h`.
-  const bool help_on_command =
-      first == "help" && argc == 3 && CommandRegistry().count(argv[2]) > 0;
+  const bool help_on_command = first == "help" && argc == 3;
   if (!help_on_command &&
       (argc < 2 || first == "-h" || first == "--help" || first == "help")) {
     PrintUsage();
@@ -62,11 +62,15 @@ int main(int argc, char** argv) {
   } else {
     for (int i = 2; i < argc; ++i) args.push_back(argv[i]);
   }
-  InstallInterruptHandlers();
   try {
     return it->second.run(static_cast<int>(args.size()), args.data());
   } catch (const Interrupted& e) {
+    // Cleaned up: now end by the signal itself, so that a calling shell
+    // script stops as it would for any other interrupted program.
     std::fprintf(stderr, "error: %s\n", e.what());
+    std::fflush(stderr);
+    signal(e.signal(), SIG_DFL);
+    raise(e.signal());
     return 128 + e.signal();
   } catch (const Error& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -11,6 +11,7 @@
 #include "hisfm/util/logging.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/interrupt.h"
 
 namespace hisfm {
 namespace {
@@ -39,6 +40,8 @@ int RunMapperCommand(int argc, char** argv) {
       code >= 0) {
     return code;
   }
+  // Ctrl-C stops colmap and removes the temporary outputs.
+  InterruptScope interrupt_scope;
   paths.options_record = OptionsRecord(app, options.mapper_args);
   RunHierarchicalMapper(paths, options);
   const std::string report_path = paths.output_path + "/report.html";

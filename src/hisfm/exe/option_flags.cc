@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
 #include <map>
 #include <set>
 #include <sstream>
@@ -249,17 +248,19 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
 
 std::string OptionsRecord(CLI::App& app,
                           const std::vector<std::string>& mapper_args) {
-  // Paths are recorded absolute, so that the file works from anywhere.
+  // Paths are recorded absolute, so that the file works from anywhere; not
+  // the colmap executable, which is looked up on PATH.
   for (CLI::Option* option : app.get_options()) {
     const std::string name = option->get_name();
     if (name.size() < 5 || name.compare(name.size() - 5, 5, "_path") != 0 ||
-        option->count() == 0 || option == app.get_config_ptr()) {
+        name == "--colmap_path" || option->count() == 0 ||
+        option == app.get_config_ptr()) {
       continue;
     }
     const std::string value = option->as<std::string>();
     if (value.empty()) continue;
     option->clear();
-    option->add_result(std::filesystem::absolute(value).string());
+    option->add_result(NormalizePath(value));
   }
   std::string record = app.config_to_str(true, false);
   for (size_t i = 0; i + 1 < mapper_args.size(); i += 2) {

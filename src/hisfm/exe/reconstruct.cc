@@ -17,6 +17,7 @@
 #include "hisfm/report/report_writer.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 
@@ -91,6 +92,8 @@ int RunReconstructCommand(int argc, char** argv) {
       code >= 0) {
     return code;
   }
+  // Ctrl-C stops colmap and removes the temporary outputs.
+  InterruptScope interrupt_scope;
   features.colmap = options.colmap;
   if (!reference_path.empty()) {
     CheckDirectoryExists(reference_path, "reference model");

@@ -151,9 +151,19 @@ Database::Database(const std::string& path)
         "('cameras','images','keypoints','two_view_geometries')");
     if (stmt.Step()) num_tables = sqlite3_column_int(stmt.get(), 0);
   } catch (const Error&) {
+    const int code = sqlite3_errcode(db_);
+    const std::string message = sqlite3_errmsg(db_);
     sqlite3_close(db_);
     db_ = nullptr;
-    throw Error(StrCat("not a COLMAP database (not SQLite): ", path));
+    if (code == SQLITE_NOTADB) {
+      throw Error(StrCat("not a COLMAP database (not SQLite): ", path));
+    }
+    // E.g. a write-ahead log left by a writer, in a folder that is
+    // read-only here: SQLite needs to create the log's index beside it.
+    throw Error(StrCat("cannot read database ", path, ": ", message,
+                       " (if a -wal or -journal file is beside it, open it "
+                       "once with sqlite3 or colmap where the folder is "
+                       "writable)"));
   }
   if (num_tables != 4) {
     sqlite3_close(db_);

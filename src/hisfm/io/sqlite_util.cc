@@ -29,7 +29,9 @@ void SqliteStatement::Reset() {
 
 std::string ReadOnlyUri(const std::string& path) {
   const std::string absolute = std::filesystem::absolute(path).string();
-  std::string uri = "file:";
+  // "file://" and an empty authority: a path starting with "//" stays a
+  // path.
+  std::string uri = "file://";
   for (char c : absolute) {
     if (c == '%' || c == '?' || c == '#') {
       char buf[4];

@@ -13,6 +13,7 @@
 #include "hisfm/io/model.h"
 #include "hisfm/util/parallel.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
@@ -60,6 +61,7 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
   HISFM_LOG_INFO("Running {}", command);
   const int status = std::system(command.c_str());
   if (status == 0) return;
+  ThrowIfInterrupted(status);
   // The folder is temporary and removed on failure: the log's last line
   // goes into the message.
   std::string last_line;

@@ -2,25 +2,33 @@
 
 #include <signal.h>
 #include <string.h>
+#include <sys/wait.h>
 
 #include <atomic>
+#include <cerrno>
 
 namespace hisfm {
 namespace {
 
+constexpr int kSignals[] = {SIGINT, SIGTERM, SIGHUP};
+constexpr int kNumSignals = sizeof(kSignals) / sizeof(kSignals[0]);
+
 std::atomic<int> g_signal{0};
 std::atomic<pid_t> g_child{0};
+struct sigaction g_previous[kNumSignals];
+bool g_caught[kNumSignals] = {};
 
 extern "C" void OnInterrupt(int signal) {
-  // Async-signal-safe only: atomics, kill and signal.
+  // Async-signal-safe only: atomics, kill, signal and raise.
+  const int saved_errno = errno;
   int expected = 0;
   if (!g_signal.compare_exchange_strong(expected, signal)) {
     ::signal(signal, SIG_DFL);
     raise(signal);
-    return;
+  } else if (const pid_t child = g_child.load(); child > 0) {
+    kill(child, signal);
   }
-  const pid_t child = g_child.load();
-  if (child > 0) kill(child, signal);
+  errno = saved_errno;
 }
 
 }  // namespace
@@ -30,12 +38,22 @@ Interrupted::Interrupted(int signal)
                    ")")),
       signal_(signal) {}
 
-void InstallInterruptHandlers() {
+InterruptScope::InterruptScope() {
   struct sigaction action = {};
   action.sa_handler = OnInterrupt;
+  action.sa_flags = SA_RESTART;
   sigemptyset(&action.sa_mask);
-  for (int signal : {SIGINT, SIGTERM, SIGHUP}) {
-    sigaction(signal, &action, nullptr);
+  for (int i = 0; i < kNumSignals; ++i) {
+    sigaction(kSignals[i], nullptr, &g_previous[i]);
+    // An ignored signal (nohup, background jobs of scripts) stays ignored.
+    g_caught[i] = g_previous[i].sa_handler != SIG_IGN;
+    if (g_caught[i]) sigaction(kSignals[i], &action, nullptr);
+  }
+}
+
+InterruptScope::~InterruptScope() {
+  for (int i = 0; i < kNumSignals; ++i) {
+    if (g_caught[i]) sigaction(kSignals[i], &g_previous[i], nullptr);
   }
 }
 
@@ -44,6 +62,16 @@ int InterruptSignal() { return g_signal.load(); }
 void ThrowIfInterrupted() {
   if (const int signal = g_signal.load(); signal != 0) {
     throw Interrupted(signal);
+  }
+}
+
+void ThrowIfInterrupted(int wait_status) {
+  ThrowIfInterrupted();
+  if (WIFSIGNALED(wait_status)) {
+    const int signal = WTERMSIG(wait_status);
+    for (int s : kSignals) {
+      if (s == signal) throw Interrupted(signal);
+    }
   }
 }
 

@@ -1,7 +1,9 @@
-// Interruption (Ctrl-C, SIGTERM) that ends a run cleanly: the running colmap
-// child is stopped with the same signal, and the run throws Interrupted at
-// its next check, so that every temporary output is removed on the way out
-// (file_util.h's AtomicDirectory) and no colmap process is left orphaned.
+// Interruption (Ctrl-C, SIGTERM, SIGHUP) that ends a run cleanly: inside an
+// InterruptScope the running colmap child is stopped with the same signal,
+// and the run throws Interrupted at its next check, so that every temporary
+// output is removed on the way out (file_util.h's AtomicDirectory) and no
+// colmap process is left orphaned. Outside a scope signals keep their
+// default action.
 #pragma once
 
 #include <sys/types.h>
@@ -10,7 +12,8 @@
 
 namespace hisfm {
 
-/// Thrown by ThrowIfInterrupted; the `hisfm` command exits with 128 + signal.
+/// Thrown by ThrowIfInterrupted. The `hisfm` command prints it and then ends
+/// by the same signal (so that a calling shell script stops too).
 class Interrupted : public Error {
  public:
   explicit Interrupted(int signal);
@@ -20,16 +23,30 @@ class Interrupted : public Error {
   int signal_;
 };
 
-/// Installs handlers for SIGINT, SIGTERM and SIGHUP. A first signal is
-/// recorded and forwarded to the child registered with SetInterruptibleChild;
-/// a second one ends the process at once (the default action).
-void InstallInterruptHandlers();
+/// While one lives, SIGINT, SIGTERM and SIGHUP are caught (unless they were
+/// ignored, as under nohup): a first signal is recorded and forwarded to the
+/// child registered with SetInterruptibleChild; a second one ends the
+/// process at once. The previous handlers come back on destruction. For
+/// commands that check (ThrowIfInterrupted) between their stages; one per
+/// process.
+class InterruptScope {
+ public:
+  InterruptScope();
+  ~InterruptScope();
+  InterruptScope(const InterruptScope&) = delete;
+  InterruptScope& operator=(const InterruptScope&) = delete;
+};
 
-/// The signal received since the handlers were installed, or 0.
+/// The signal received inside the scope, or 0.
 int InterruptSignal();
 
 /// Throws Interrupted if a signal was received.
 void ThrowIfInterrupted();
+
+/// Same, and also if `wait_status` (of waitpid or std::system) tells that
+/// the child died of SIGINT, SIGTERM or SIGHUP: a Ctrl-C that reached the
+/// child while std::system ignored it here.
+void ThrowIfInterrupted(int wait_status);
 
 /// Registers the child process that a signal is forwarded to (0: none).
 /// If a signal arrived before the child was registered, it is forwarded at

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
 
@@ -121,6 +122,7 @@ std::vector<double> CommandVerifier::Score(
                            " " + ShellQuote(input) + " " + ShellQuote(output) +
                            " > " + ShellQuote(log) + " 2>&1";
   const int status = std::system(full.c_str());
+  ThrowIfInterrupted(status);
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
   if (code != 0) {
     std::ifstream in(log);
