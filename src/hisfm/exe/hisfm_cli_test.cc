@@ -45,6 +45,16 @@ Result RunHisfmIn(const std::string& dir, const std::string& args,
   return r;
 }
 
+// Writes a synthetic street of `num_images` photos to tmp/`name`.
+Result MakeScene(const TempDir& tmp, const std::string& name, int num_images,
+                 int seed) {
+  return RunHisfm("synth --output_path " + (tmp / name) +
+                      " --scene street --num_images " +
+                      std::to_string(num_images) + " --seed " +
+                      std::to_string(seed),
+                  tmp);
+}
+
 size_t NumLines(const std::string& s) {
   size_t n = 0;
   std::istringstream in(s);
@@ -104,11 +114,7 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
 // user's folder.
 TEST(HisfmCli, OutputsNeverReplaceInputs) {
   TempDir tmp;
-  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
-                         " --scene street --num_images 12 --seed 1",
-                     tmp)
-                .code,
-            0);
+  ASSERT_EQ(MakeScene(tmp, "scene", 12, 1).code, 0);
   const std::string db = tmp / "scene/database.db";
   const uint64_t before = FileFingerprint(db);
   fs::create_directories(tmp / "user");
@@ -136,11 +142,7 @@ TEST(HisfmCli, OutputsNeverReplaceInputs) {
 // What colmap would crash on is reported first, in one line.
 TEST(HisfmCli, DatabasesColmapCannotUseAreErrors) {
   TempDir tmp;
-  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
-                         " --scene street --num_images 12 --seed 1",
-                     tmp)
-                .code,
-            0);
+  ASSERT_EQ(MakeScene(tmp, "scene", 12, 1).code, 0);
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"DELETE FROM keypoints WHERE image_id = 2;", "no keypoints"},
       {"DELETE FROM cameras;", "not in the cameras table"}};
@@ -167,11 +169,7 @@ TEST(HisfmCli, DatabasesColmapCannotUseAreErrors) {
 TEST(HisfmCli, InterruptedMapperLeavesNoOutputAndNoColmap) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  ASSERT_EQ(RunHisfm("synth --output_path " + (tmp / "scene") +
-                         " --scene street --num_images 40 --seed 1",
-                     tmp)
-                .code,
-            0);
+  ASSERT_EQ(MakeScene(tmp, "scene", 40, 1).code, 0);
   fs::create_directories(tmp / "results");
   const std::string out = tmp / "results/out";
   const std::string script =
@@ -219,12 +217,7 @@ TEST(HisfmCli, InterruptedMapperLeavesNoOutputAndNoColmap) {
 TEST(HisfmCli, OptionsFileFeedsBack) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  ASSERT_EQ(RunHisfmIn(tmp.path(),
-                       "synth --output_path scene --scene street "
-                       "--num_images 12 --seed 2",
-                       tmp)
-                .code,
-            0);
+  ASSERT_EQ(MakeScene(tmp, "scene", 12, 2).code, 0);
   // Relative paths, from the temporary folder.
   const Result first = RunHisfmIn(
       tmp.path(),
