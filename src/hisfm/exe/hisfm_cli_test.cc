@@ -155,11 +155,15 @@ TEST(HisfmCli, DatabasesColmapCannotUseAreErrors) {
     ASSERT_EQ(sqlite3_exec(handle, sql.c_str(), nullptr, nullptr, nullptr),
               SQLITE_OK);
     sqlite3_close(handle);
-    const Result r = RunHisfm(
-        "view_graph --log_level warn --database_path " + db, tmp);
-    EXPECT_NE(r.code, 0) << sql;
-    EXPECT_EQ(NumLines(r.output), 1u) << r.output;
-    EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    for (const std::string& command :
+         {"view_graph --log_level warn --database_path " + db,
+          "filter_pairs --log_level warn --database_path " + db +
+              " --output_path " + (tmp / "filtered.db")}) {
+      const Result r = RunHisfm(command, tmp);
+      EXPECT_NE(r.code, 0) << sql;
+      EXPECT_EQ(NumLines(r.output), 1u) << r.output;
+      EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
+    }
   }
 }
 

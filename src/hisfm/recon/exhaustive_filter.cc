@@ -5,7 +5,9 @@
 
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/io/database.h"
+#include "hisfm/recon/input_check.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
 
@@ -33,6 +35,9 @@ nlohmann::json FilterPairsExhaustively(const std::string& database_path,
       ViewGraph::FromDatabase(database, options.min_num_matches);
   ThrowUnless(graph.NumEdges() > 0,
               StrCat("database has no verified image pairs: ", database_path));
+  const std::vector<DatabaseImage> images = database.ReadImages();
+  CheckImagesUsable(database, images, graph);
+  if (!image_path.empty()) CheckDirectoryExists(image_path, "image folder");
   const Communities communities =
       ComputeCommunities(graph, options.communities);
   VerifierContext context;
@@ -40,7 +45,7 @@ nlohmann::json FilterPairsExhaustively(const std::string& database_path,
   context.graph = &graph;
   context.communities = &communities;
   context.image_path = image_path;
-  for (const DatabaseImage& im : database.ReadImages()) {
+  for (const DatabaseImage& im : images) {
     context.image_names[im.image_id] = im.name;
   }
   std::unique_ptr<BridgeScorer> scorer =

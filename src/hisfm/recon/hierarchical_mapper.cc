@@ -4,11 +4,11 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <unordered_set>
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
+#include "hisfm/recon/input_check.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/interrupt.h"
@@ -86,34 +86,6 @@ struct LoadedInput {
   size_t num_verified_pairs = 0;
   nlohmann::json pair_filter;
 };
-
-// Throws a one-line Error for what colmap would crash on: an image whose
-// camera is missing, or an image of a verified pair without keypoints.
-void CheckImagesUsable(const Database& database,
-                       const std::vector<DatabaseImage>& images,
-                       const ViewGraph& graph) {
-  std::unordered_set<CameraId> cameras;
-  for (const DatabaseCamera& camera : database.ReadCameras()) {
-    cameras.insert(camera.camera_id);
-  }
-  const std::unordered_map<ImageId, size_t> num_keypoints =
-      database.ReadNumKeypoints();
-  for (const DatabaseImage& im : images) {
-    ThrowUnless(cameras.count(im.camera_id) > 0,
-                StrCat("database error: image ", im.image_id, " (", im.name,
-                       ") refers to camera ", im.camera_id,
-                       ", which is not in the cameras table: ",
-                       database.path()));
-    auto it = num_keypoints.find(im.image_id);
-    const bool paired =
-        graph.HasImage(im.image_id) &&
-        !graph.IncidentEdges(graph.IndexOf(im.image_id)).empty();
-    ThrowUnless(!paired || (it != num_keypoints.end() && it->second > 0),
-                StrCat("database error: image ", im.image_id, " (", im.name,
-                       ") has verified pairs but no keypoints: ",
-                       database.path()));
-  }
-}
 
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
                                   const std::string& image_path,
