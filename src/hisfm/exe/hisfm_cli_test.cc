@@ -108,6 +108,10 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
           "--HiSfM.top_k 0",
           tmp);
   EXPECT_NE(bad_option.code, 0);
+  EXPECT_EQ(NumLines(bad_option.output), 1u) << bad_option.output;
+  EXPECT_NE(bad_option.output.find("(set by --HiSfM.top_k)"),
+            std::string::npos)
+      << bad_option.output;
 }
 
 // Mistyped output and work paths must never delete or replace an input or a

@@ -1,6 +1,8 @@
 #include "hisfm/exe/option_flags.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cstring>
 #include <cstdio>
 #include <map>
 #include <set>
@@ -209,6 +211,36 @@ std::vector<std::string> TakeMapperPassThrough(
   return out;
 }
 
+std::string FlagsNamedIn(const CLI::App& app, const std::string& message) {
+  std::set<std::string> words;
+  std::string word;
+  for (const char c : message + " ") {
+    if (std::isalnum(static_cast<unsigned char>(c)) || c == '_') {
+      word += c;
+    } else {
+      if (word.find('_') != std::string::npos) words.insert(word);
+      word.clear();
+    }
+  }
+  std::string flags;
+  for (const CLI::Option* option : app.get_options()) {
+    const std::string name = option->get_name();
+    for (const std::string& w : words) {
+      // "--HiSfM.filter_min_distinctive_ratio" ends with the field
+      // "min_distinctive_ratio" after a separator.
+      const size_t n = name.size();
+      const bool match = n > w.size() &&
+                         name.compare(n - w.size(), w.size(), w) == 0 &&
+                         std::strchr("._-", name[n - w.size() - 1]) != nullptr;
+      if (match) {
+        flags += (flags.empty() ? "" : ", ") + name;
+        break;
+      }
+    }
+  }
+  return flags.empty() ? "" : StrCat(" (set by ", flags, ")");
+}
+
 int ParseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
@@ -242,7 +274,11 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
       app.remaining(), project->count() > 0
                            ? ReadMapperEntries(project->as<std::string>())
                            : std::map<std::string, std::string>());
-  options->Check();
+  try {
+    options->Check();
+  } catch (const Error& e) {
+    throw Error(StrCat(e.what(), FlagsNamedIn(app, e.what())));
+  }
   return -1;
 }
 

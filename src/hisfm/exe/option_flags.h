@@ -29,6 +29,11 @@ std::vector<std::string> TakeMapperPassThrough(
     const std::vector<std::string>& remaining,
     const std::map<std::string, std::string>& file_entries = {});
 
+/// The flags of `app` whose names end with a snake_case word of `message`
+/// (an options Check() failure names the field, not the flag), as
+/// " (set by --A, --B)", or "" if none.
+std::string FlagsNamedIn(const CLI::App& app, const std::string& message);
+
 /// Parses a command line. Help prints the help (exit code 0); a parse error
 /// prints one line, "error: ... (see -h)", on stderr (exit code 1). Returns
 /// -1 when the command should go on, else the exit code.
