@@ -291,7 +291,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   }
   CheckColmapAvailable(options.colmap);
   { Database probe(paths.database_path); }  // Fails early on a non-COLMAP file.
-  PrepareWorkDirectory(work);
+  // Work folders of earlier versions hold view_graph.json, written first.
+  PrepareWorkDirectory(work, "view_graph.json");
 
   AtomicDirectory output(output_path);
   LoadedInput in =

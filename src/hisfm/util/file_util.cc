@@ -54,13 +54,16 @@ namespace {
 constexpr char kWorkMarker[] = ".hisfm_work";
 }  // namespace
 
-void PrepareWorkDirectory(const std::string& path) {
+void PrepareWorkDirectory(const std::string& path,
+                          const std::string& legacy_file) {
   std::error_code ec;
   if (fs::exists(path, ec)) {
     ThrowUnless(fs::is_directory(path, ec),
                 StrCat("work path is a file, not a folder: ", path));
     ThrowUnless(fs::is_empty(path, ec) ||
-                    fs::exists(fs::path(path) / kWorkMarker, ec),
+                    fs::exists(fs::path(path) / kWorkMarker, ec) ||
+                    (!legacy_file.empty() &&
+                     fs::is_regular_file(fs::path(path) / legacy_file, ec)),
                 StrCat("work folder is not empty and was not made by hisfm: ",
                        path, " (choose another --work_path)"));
     fs::remove_all(path, ec);

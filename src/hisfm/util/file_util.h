@@ -25,9 +25,12 @@ bool IsSameOrInside(const std::string& path, const std::string& folder);
 
 /// Empties (or creates) a folder for a run's intermediate files and marks it
 /// as such. A folder that is not empty is only emptied if an earlier call
-/// marked it; anything else (a user's folder, a file) is refused with an
+/// marked it, or if it holds `legacy_file` (set by callers whose earlier
+/// versions wrote that file first into every work folder, before the mark
+/// existed); anything else (a user's folder, a file) is refused with an
 /// Error, so that a mistyped path never deletes data.
-void PrepareWorkDirectory(const std::string& path);
+void PrepareWorkDirectory(const std::string& path,
+                          const std::string& legacy_file = "");
 
 /// A folder that is filled under a temporary name next to its final path and
 /// renamed into place by Commit(), so that an interrupted run never leaves a

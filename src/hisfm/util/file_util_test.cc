@@ -68,6 +68,14 @@ TEST(FileUtil, PrepareWorkDirectoryNeverDeletesAUsersFolder) {
   fs::create_directories(tmp / "empty");
   PrepareWorkDirectory(tmp / "empty");
   EXPECT_EQ(NumEntries(tmp / "empty"), 1u);
+
+  // A work folder of an earlier version, recognized by the file it held.
+  fs::create_directories(tmp / "legacy/component0");
+  WriteFileAtomically(tmp / "legacy/view_graph.json", "{}\n");
+  EXPECT_THROW(PrepareWorkDirectory(tmp / "legacy"), Error);
+  PrepareWorkDirectory(tmp / "legacy", "view_graph.json");
+  EXPECT_EQ(NumEntries(tmp / "legacy"), 1u);
+  EXPECT_THROW(PrepareWorkDirectory(tmp / "user", "view_graph.json"), Error);
 }
 
 TEST(FileUtil, WriteFileAtomicallyRefusesFoldersAndDatabases) {
