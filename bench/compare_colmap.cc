@@ -146,6 +146,8 @@ int main(int argc, char** argv) {
   std::string markdown_path;
   std::string verifier = "builtin";
   int synth_images = 150;
+  int synth_seed = 1;
+  double synth_background_density = SynthOptions().background_density;
   app.add_option("--scenes", scenes_arg,
                  "Comma-separated: names under yan2017/ in the data folder, "
                  "or synth:<scene>")
@@ -158,6 +160,12 @@ int main(int argc, char** argv) {
   app.add_option("--HiSfM.verifier", verifier, "Verifier for hisfm mapper")
       ->capture_default_str();
   app.add_option("--synth_images", synth_images, "Images per synthetic scene")
+      ->capture_default_str();
+  app.add_option("--synth_seed", synth_seed, "Seed of the synthetic scenes")
+      ->capture_default_str();
+  app.add_option("--synth_background_density", synth_background_density,
+                 "Unique background of the synthetic scenes (hisfm synth "
+                 "--background_density): lower is harder")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   if (data_dir.empty()) {
@@ -178,7 +186,8 @@ int main(int argc, char** argv) {
         SynthOptions options;
         options.scene = name.substr(6);
         options.num_images = synth_images;
-        options.seed = 1;
+        options.seed = synth_seed;
+        options.background_density = synth_background_density;
         const std::string dir = work_path + "/" + options.scene + "_data";
         WriteSyntheticDataset(options, dir);
         s.database_path = dir + "/database.db";
