@@ -57,8 +57,6 @@ InterruptScope::~InterruptScope() {
   }
 }
 
-int InterruptSignal() { return g_signal.load(); }
-
 void ThrowIfInterrupted() {
   if (const int signal = g_signal.load(); signal != 0) {
     throw Interrupted(signal);

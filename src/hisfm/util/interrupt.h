@@ -37,9 +37,6 @@ class InterruptScope {
   InterruptScope& operator=(const InterruptScope&) = delete;
 };
 
-/// The signal received inside the scope, or 0.
-int InterruptSignal();
-
 /// Throws Interrupted if a signal was received.
 void ThrowIfInterrupted();
 
