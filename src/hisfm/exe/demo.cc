@@ -35,21 +35,6 @@ std::string DefaultWorkspace() {
   return StrCat(tmp && *tmp ? tmp : "/tmp", "/hisfm_demo");
 }
 
-// Empties the demo folder, refusing folders that hold anything but an
-// earlier demo.
-void PrepareWorkspace(const std::string& path) {
-  std::error_code ec;
-  if (!IsMissingOrEmptyDirectory(path)) {
-    ThrowUnless(fs::exists(path + "/" + kMarker, ec),
-                StrCat("workspace is not empty and not an earlier demo: ",
-                       path, " (choose another --workspace_path)"));
-    fs::remove_all(path, ec);
-    ThrowUnless(!ec, StrCat("cannot clear ", path, ": ", ec.message()));
-  }
-  fs::create_directories(path, ec);
-  ThrowUnless(!ec, StrCat("cannot create ", path, ": ", ec.message()));
-}
-
 // The numbered models in `folder`, largest first.
 std::vector<Reconstruction> ReadModels(const std::string& folder) {
   std::vector<Reconstruction> models = ReadNumberedModels(folder);
@@ -126,7 +111,8 @@ int RunDemoCommand(int argc, char** argv) {
   synth.Check();
   CheckColmapAvailable(options.colmap);
   workspace = fs::absolute(workspace).lexically_normal().string();
-  PrepareWorkspace(workspace);
+  // A folder of an earlier demo holds kMarker.
+  PrepareWorkDirectory(workspace, kMarker);
   WriteFileAtomically(workspace + "/" + kMarker,
                       nlohmann::json({{"scene", synth.scene},
                                       {"num_images", synth.num_images},

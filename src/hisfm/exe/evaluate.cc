@@ -31,15 +31,13 @@ std::vector<std::string> FindModels(const std::string& model_path) {
   fs::path path = fs::absolute(model_path).lexically_normal();
   if (path.filename().empty()) path = path.parent_path();  // trailing '/'
   if (HasModel(path.string())) {
-    const std::string name = path.filename().string();
-    const bool numbered =
-        !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
-          return c >= '0' && c <= '9';
-        });
-    if (numbered && !path.parent_path().empty()) {
-      const std::vector<std::string> siblings =
-          NumberedModelFolders(path.parent_path().string());
-      if (siblings.size() > 1) return siblings;
+    // One of several numbered models: all of them.
+    const std::vector<std::string> siblings =
+        NumberedModelFolders(path.parent_path().string());
+    if (siblings.size() > 1 &&
+        std::find(siblings.begin(), siblings.end(), path.string()) !=
+            siblings.end()) {
+      return siblings;
     }
     return {path.string()};
   }

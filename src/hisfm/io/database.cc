@@ -137,7 +137,6 @@ Database::Database(const std::string& path)
   if (!connection) {
     throw Error(StrCat("cannot open database ", path, ": ", error));
   }
-  db_ = connection.release();
   // No memory-mapped reads: mapped pages count as the process's resident
   // memory (SQLite maps up to 2 GB), and on a warm page cache they save only
   // about a quarter of a full scan of the pair table (0.63 s against 0.82 s
@@ -146,32 +145,27 @@ Database::Database(const std::string& path)
   size_t num_tables = 0;
   try {
     SqliteStatement stmt(
-        db_,
+        connection.get(),
         "SELECT count(*) FROM sqlite_master WHERE type='table' AND name IN "
         "('cameras','images','keypoints','two_view_geometries')");
     if (stmt.Step()) num_tables = sqlite3_column_int(stmt.get(), 0);
   } catch (const Error&) {
-    const int code = sqlite3_errcode(db_);
-    const std::string message = sqlite3_errmsg(db_);
-    sqlite3_close(db_);
-    db_ = nullptr;
-    if (code == SQLITE_NOTADB) {
+    if (sqlite3_errcode(connection.get()) == SQLITE_NOTADB) {
       throw Error(StrCat("not a COLMAP database (not SQLite): ", path));
     }
     // E.g. a write-ahead log left by a writer, in a folder that is
     // read-only here: SQLite needs to create the log's index beside it.
-    throw Error(StrCat("cannot read database ", path, ": ", message,
+    throw Error(StrCat("cannot read database ", path, ": ",
+                       sqlite3_errmsg(connection.get()),
                        " (if a -wal or -journal file is beside it, open it "
                        "once with sqlite3 or colmap where the folder is "
                        "writable)"));
   }
-  if (num_tables != 4) {
-    sqlite3_close(db_);
-    db_ = nullptr;
-    throw Error(StrCat("not a COLMAP database (missing cameras, images, "
-                       "keypoints or two_view_geometries table): ",
-                       path));
-  }
+  ThrowUnless(num_tables == 4,
+              StrCat("not a COLMAP database (missing cameras, images, "
+                     "keypoints or two_view_geometries table): ",
+                     path));
+  db_ = connection.release();
 }
 
 Database::~Database() {

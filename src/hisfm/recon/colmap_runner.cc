@@ -6,11 +6,10 @@
 #include <unistd.h>
 
 #include <cstring>
-#include <deque>
 #include <filesystem>
-#include <fstream>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
 #include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
@@ -90,23 +89,6 @@ std::string JoinCommand(const std::vector<std::string>& argv) {
 }
 
 }  // namespace
-
-std::string TailOfFile(const std::string& path, size_t max_lines) {
-  std::ifstream in(path);
-  std::deque<std::string> lines;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    lines.push_back(line);
-    if (lines.size() > max_lines) lines.pop_front();
-  }
-  std::string out;
-  for (const std::string& l : lines) {
-    if (!out.empty()) out += " | ";
-    out += l;
-  }
-  return out;
-}
 
 std::string CheckColmapAvailable(const ColmapRunnerOptions& options) {
   options.Check();

@@ -24,7 +24,4 @@ double RunColmap(const ColmapRunnerOptions& options,
                  const std::vector<std::string>& args,
                  const std::string& log_path);
 
-/// Last `max_lines` non-empty lines of a text file, joined by " | ".
-std::string TailOfFile(const std::string& path, size_t max_lines);
-
 }  // namespace hisfm

@@ -64,18 +64,11 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
   ThrowIfInterrupted(status);
   // The folder is temporary and removed on failure: the log's last line
   // goes into the message.
-  std::string last_line;
-  {
-    std::ifstream log(log_path);
-    for (std::string line; std::getline(log, line);) {
-      if (!line.empty()) last_line = line;
-    }
-  }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   ThrowUnless(code != 127, StrCat("colmap not found: cannot run '",
                                   options.colmap_path, "'"));
   throw Error(StrCat("colmap matches_importer failed (exit ", code,
-                     "): ", last_line));
+                     "): ", TailOfFile(log_path, 1)));
 }
 
 }  // namespace

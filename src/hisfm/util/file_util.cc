@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <deque>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -65,7 +66,7 @@ void PrepareWorkDirectory(const std::string& path,
                     (!legacy_file.empty() &&
                      fs::is_regular_file(fs::path(path) / legacy_file, ec)),
                 StrCat("work folder is not empty and was not made by hisfm: ",
-                       path, " (choose another --work_path)"));
+                       path, " (choose another folder)"));
     fs::remove_all(path, ec);
     ThrowUnless(!ec, StrCat("cannot clear ", path, ": ", ec.message()));
   }
@@ -156,6 +157,23 @@ void WriteFileAtomically(const std::string& path, const std::string& contents) {
     fs::remove(temp, ec);
     throw Error(StrCat("cannot rename ", temp, " to ", path, ": ", message));
   }
+}
+
+std::string TailOfFile(const std::string& path, size_t max_lines) {
+  std::ifstream in(path);
+  std::deque<std::string> lines;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    lines.push_back(line);
+    if (lines.size() > max_lines) lines.pop_front();
+  }
+  std::string out;
+  for (const std::string& l : lines) {
+    if (!out.empty()) out += " | ";
+    out += l;
+  }
+  return out;
 }
 
 std::string ReadTextFile(const std::string& path) {

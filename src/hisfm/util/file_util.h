@@ -64,6 +64,10 @@ void CheckOutputFile(const std::string& path);
 /// CheckOutputFile.
 void WriteFileAtomically(const std::string& path, const std::string& contents);
 
+/// Last `max_lines` non-empty lines of a text file, joined by " | " (empty if
+/// it cannot be read): the end of a log, for an error message.
+std::string TailOfFile(const std::string& path, size_t max_lines);
+
 /// Reads a whole text file; throws Error if it cannot be read.
 std::string ReadTextFile(const std::string& path);
 

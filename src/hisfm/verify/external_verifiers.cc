@@ -125,10 +125,7 @@ std::vector<double> CommandVerifier::Score(
   ThrowIfInterrupted(status);
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128;
   if (code != 0) {
-    std::ifstream in(log);
-    std::string last, line;
-    while (std::getline(in, line))
-      if (!line.empty()) last = line;
+    const std::string last = TailOfFile(log, 1);
     throw Error(StrCat("verifier command failed (exit ", code, "): ",
                        command_, last.empty() ? "" : " -- " + last));
   }
