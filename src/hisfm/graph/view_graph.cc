@@ -97,4 +97,34 @@ std::vector<std::vector<ImageId>> ViewGraph::ConnectedComponents() const {
   return out;
 }
 
+std::vector<size_t> StrongestEdges(const ViewGraph& graph, size_t index,
+                                   size_t count) {
+  std::vector<size_t> edges = graph.IncidentEdges(index);
+  const ImageId image_id = graph.Images()[index];
+  const auto stronger = [&](size_t a, size_t b) {
+    const uint32_t wa = graph.Edges()[a].weight;
+    const uint32_t wb = graph.Edges()[b].weight;
+    if (wa != wb) return wa > wb;
+    return graph.OtherEnd(a, image_id) < graph.OtherEnd(b, image_id);
+  };
+  const size_t k = std::min(count, edges.size());
+  std::partial_sort(edges.begin(), edges.begin() + k, edges.end(), stronger);
+  edges.resize(k);
+  return edges;
+}
+
+std::vector<ImageId> StrongestNeighbours(const ViewGraph& graph,
+                                         ImageId image_id, size_t count,
+                                         ImageId exclude) {
+  std::vector<ImageId> out;
+  if (!graph.HasImage(image_id)) return out;
+  const size_t index = graph.IndexOf(image_id);
+  const bool excluding = exclude != kInvalidImageId && graph.Weight(image_id, exclude) > 0;
+  for (const size_t e : StrongestEdges(graph, index, count + (excluding ? 1 : 0))) {
+    const ImageId other = graph.OtherEnd(e, image_id);
+    if (other != exclude && out.size() < count) out.push_back(other);
+  }
+  return out;
+}
+
 }  // namespace hisfm

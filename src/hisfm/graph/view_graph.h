@@ -65,4 +65,17 @@ class ViewGraph {
   std::vector<std::vector<size_t>> adjacency_;
 };
 
+/// The `count` strongest neighbours of `image_id` (by decreasing weight;
+/// equal weights: smaller image id first), leaving out `exclude`
+/// (kInvalidImageId: none). Fewer if the image has fewer neighbours; none
+/// for an unknown image.
+std::vector<ImageId> StrongestNeighbours(const ViewGraph& graph,
+                                         ImageId image_id, size_t count,
+                                         ImageId exclude = kInvalidImageId);
+
+/// The `count` strongest edges (indices into graph.Edges()) incident to the
+/// image with dense index `index`, in the order of StrongestNeighbours.
+std::vector<size_t> StrongestEdges(const ViewGraph& graph, size_t index,
+                                   size_t count);
+
 }  // namespace hisfm

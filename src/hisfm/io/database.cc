@@ -663,6 +663,25 @@ void WriteFilteredDatabase(const std::string& source_path,
                  "INSERT INTO matches SELECT * FROM src.matches WHERE pair_id "
                  "IN (SELECT pair_id FROM keep_pairs);");
     }
+    if (options.replace_inliers) {
+      SqliteStatement update(db,
+                             "UPDATE two_view_geometries SET rows = ?, cols = "
+                             "2, data = ? WHERE pair_id = ?");
+      for (const auto& [pair, matches] : *options.replace_inliers) {
+        static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
+                      "FeatureMatch is a pair of uint32 indices");
+        sqlite3_bind_int64(update.get(), 1,
+                           static_cast<sqlite3_int64>(matches.size()));
+        sqlite3_bind_blob(update.get(), 2, matches.data(),
+                          static_cast<int>(matches.size() *
+                                           sizeof(FeatureMatch)),
+                          SQLITE_TRANSIENT);
+        sqlite3_bind_int64(update.get(), 3,
+                           ImagePairToPairId(pair.image_id1, pair.image_id2));
+        update.Step();
+        update.Reset();
+      }
+    }
     SqliteExec(db, "COMMIT;");
     SqliteExec(db, "DETACH DATABASE src;");
   } catch (...) {

@@ -222,6 +222,12 @@ struct FilteredDatabaseOptions {
   bool copy_descriptors = false;
   /// Copy raw matches of the kept pairs (the mapper does not read them).
   bool copy_matches = false;
+  /// If set, the kept pairs it holds get these inlier matches (oriented as
+  /// stored: the smaller image id's keypoints first) instead of the
+  /// source's; F, E, H and the configuration are copied unchanged. Not
+  /// owned; must outlive the call.
+  const std::unordered_map<ImagePair, std::vector<FeatureMatch>,
+                           ImagePairHash>* replace_inliers = nullptr;
 
   void Check() const {}
 };

@@ -85,6 +85,11 @@ struct LoadedInput {
   /// Verified pairs in the database (before the pair filter).
   size_t num_verified_pairs = 0;
   nlohmann::json pair_filter;
+  /// The builtin multi-view verifier's outcome (verified_hierarchy.h):
+  /// cleaned inliers of the hierarchy's edges, and counts.
+  std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
+      inliers;
+  nlohmann::json multiview;
 };
 
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
@@ -129,6 +134,30 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   ThrowIfInterrupted();
   LogHeading("Building the hierarchy");
   const Database& db = *in.database;
+  if (options.verifier.IsMultiView()) {
+    MultiViewVerifier verifier(db, in.graph, options.verifier.multiview);
+    in.verifier_name = verifier.Name();
+    VerifiedHierarchy verified = BuildVerifiedHierarchy(
+        options.verifier.burstiness_weights ? verifier.RankingGraph()
+                                            : in.graph,
+        verifier, options.hierarchy,
+        options.hierarchy.skeleton.verify_threshold,
+        options.verifier.verified_hierarchy);
+    in.hierarchy = std::move(verified.hierarchy);
+    in.inliers = std::move(verified.inliers);
+    in.multiview = {{"rounds", verified.rounds},
+                    {"rejected_trusted_edges", verified.rejected.size()},
+                    {"unresolved_trusted_edges", verified.num_unresolved},
+                    {"pairs_evaluated", verifier.NumEvaluated()},
+                    {"inliers_before_cleaning", verified.num_inliers_before},
+                    {"inliers_after_cleaning", verified.num_inliers_after}};
+    HISFM_LOG_INFO(
+        "multi-view verification: {} pairs judged, {} trusted edges "
+        "rejected in {} round(s), {} of {} inliers kept on the hierarchy's "
+        "edges",
+        verifier.NumEvaluated(), verified.rejected.size(), verified.rounds,
+        verified.num_inliers_after, verified.num_inliers_before);
+  } else {
   in.hierarchy = BuildHierarchy(
       in.graph,
       [&](const Communities& communities) {
@@ -144,6 +173,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
         return scorer;
       },
       options.hierarchy);
+  }
   in.graph_seconds = timer.ElapsedSeconds();
   const Hierarchy& h = in.hierarchy;
   HISFM_LOG_INFO(
@@ -227,6 +257,7 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"verified_pairs", in.num_verified_pairs},
           {"pairs_after_filter", in.graph.NumEdges()},
           {"pair_filter", in.pair_filter},
+          {"multiview", in.multiview},
           {"communities", h.communities.NumCommunities()},
           {"candidate_bridges", h.skeleton.num_candidate_bridges},
           {"num_trees", h.skeleton.num_trees},
@@ -326,10 +357,12 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                       comp.skeleton_images.size(), " in the scaffold"));
 
     Timer timer;
+    FilteredDatabaseOptions filtered;
+    if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
     WriteFilteredDatabase(paths.database_path, dir + "/skeleton.db",
-                          comp.skeleton_edges);
+                          comp.skeleton_edges, filtered);
     WriteFilteredDatabase(paths.database_path, dir + "/hierarchy.db",
-                          comp.edges);
+                          comp.edges, filtered);
     WriteImageList(comp.skeleton_images, in.names, dir + "/skeleton_images.txt");
     WriteImageList(comp.images, in.names, dir + "/images.txt");
     filter_seconds += timer.ElapsedSeconds();

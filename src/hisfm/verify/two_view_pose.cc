@@ -29,16 +29,6 @@ Eigen::Vector3d TriangulatePoint(const Rigid3d& cam2_from_cam1,
   return X.head<3>() / X(3);
 }
 
-double TriangulationAngle(const Eigen::Vector3d& center1,
-                          const Eigen::Vector3d& center2,
-                          const Eigen::Vector3d& point) {
-  const Eigen::Vector3d r1 = point - center1;
-  const Eigen::Vector3d r2 = point - center2;
-  const double n = r1.norm() * r2.norm();
-  if (n <= 0) return 0.0;
-  return std::acos(std::clamp(r1.dot(r2) / n, -1.0, 1.0));
-}
-
 int PoseFromEssential(const Eigen::Matrix3d& E,
                       const std::vector<Eigen::Vector2d>& x1,
                       const std::vector<Eigen::Vector2d>& x2,

@@ -24,11 +24,6 @@ Eigen::Vector3d TriangulatePoint(const Rigid3d& cam2_from_cam1,
                                  const Eigen::Vector2d& x1,
                                  const Eigen::Vector2d& x2);
 
-/// Angle (radians) at the point between the rays to the two camera centres.
-double TriangulationAngle(const Eigen::Vector3d& center1,
-                          const Eigen::Vector3d& center2,
-                          const Eigen::Vector3d& point);
-
 /// Decomposes `E` (x2^T E x1 = 0 on normalized points) and picks the
 /// candidate pose with most correspondences in front of both cameras (depths
 /// of the rays' closest points, by 2x2 normal equations; correspondences

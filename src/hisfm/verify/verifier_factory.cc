@@ -15,8 +15,11 @@ bool StartsWith(const std::string& s, const std::string& prefix) {
 void VerifierOptions::Check() const {
   HISFM_CHECK_OPTION(command_batch_size >= 1);
   builtin.Check();
+  multiview.Check();
+  verified_hierarchy.Check();
   pair_filter.Check();
-  ThrowUnless(verifier == "builtin" || verifier == "none" ||
+  ThrowUnless(verifier == "builtin" || verifier == "context" ||
+                  verifier == "none" ||
                   (StartsWith(verifier, "scores:") && verifier.size() > 7) ||
                   (StartsWith(verifier, "command:") && verifier.size() > 8),
               StrCat("invalid --HiSfM.verifier '", verifier,
@@ -36,7 +39,14 @@ std::unique_ptr<BridgeScorer> CreateVerifier(const VerifierOptions& options,
                                              options.command_batch_size,
                                              context);
   }
-  return std::make_unique<ContextDisambiguator>(context, options.builtin);
+  if (v == "context") {
+    return std::make_unique<ContextDisambiguator>(context, options.builtin);
+  }
+  ThrowUnless(context.database && context.graph,
+              "the builtin verifier needs the database and the view graph");
+  return std::make_unique<MultiViewVerifier>(*context.database,
+                                             *context.graph,
+                                             options.multiview);
 }
 
 }  // namespace hisfm

@@ -6,6 +6,8 @@
 
 #include "hisfm/graph/bridge_scorer.h"
 #include "hisfm/verify/context_disambiguator.h"
+#include "hisfm/verify/multiview_verifier.h"
+#include "hisfm/verify/verified_hierarchy.h"
 #include "hisfm/verify/pair_filter.h"
 #include "hisfm/verify/verifier_context.h"
 
@@ -13,14 +15,26 @@ namespace hisfm {
 
 struct VerifierOptions {
   /// Which verifier scores the bridges:
-  ///   "builtin"       the disambiguator needing no learned weights (default);
+  ///   "builtin"       the multi-view disambiguator needing no learned
+  ///                   weights (multiview_verifier.h; default);
+  ///   "context"       the earlier two-view coverage and distinctive-track
+  ///                   disambiguator (context_disambiguator.h) with the pair
+  ///                   filter;
   ///   "none"          accept every bridge;
   ///   "scores:FILE"   precomputed `name1 name2 probability` lines;
   ///   "command:CMD"   run CMD on batches of bridges (see CommandVerifier).
   std::string verifier = "builtin";
   /// Pairs per call of a command verifier.
   int command_batch_size = 32;
-  /// Options of the builtin disambiguator.
+  /// Options of the builtin (multi-view) disambiguator.
+  MultiViewVerifierOptions multiview;
+  /// How the builtin verifier checks the trusted edges and cleans inliers.
+  VerifiedHierarchyOptions verified_hierarchy;
+  /// With the builtin verifier, the hierarchy ranks pairs by burstiness-
+  /// weighted support (match_burstiness.h) instead of inlier count:
+  /// communities, leaves and the order in which Kruskal meets bridges.
+  bool burstiness_weights = true;
+  /// Options of the "context" disambiguator.
   DisambiguatorOptions builtin;
   /// Remove pairs explained by repeated structure from the view graph before
   /// the hierarchy is built (FilterAmbiguousPairs, pair_filter.h), so that
@@ -31,8 +45,11 @@ struct VerifierOptions {
   PairFilterOptions pair_filter;
 
   void Check() const;
-  /// filter_pairs and a verifier other than "none".
-  bool UsesPairFilter() const { return filter_pairs && verifier != "none"; }
+  /// filter_pairs and the "context" verifier.
+  bool UsesPairFilter() const { return filter_pairs && verifier == "context"; }
+  /// The builtin multi-view verifier, which builds the hierarchy itself
+  /// (verified_hierarchy.h).
+  bool IsMultiView() const { return verifier == "builtin"; }
 };
 
 /// Creates the verifier; throws hisfm::Error for an unknown kind or a bad

@@ -1,0 +1,164 @@
+// Measures the built-in verifier's evidence on labelled image pairs and
+// reports how well each cue separates true pairs from doppelgangers (AUC).
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <numeric>
+#include <sstream>
+
+#include "hisfm/graph/view_graph.h"
+#include "hisfm/io/database.h"
+#include "hisfm/io/model.h"
+#include "hisfm/util/timer.h"
+#include "hisfm/verify/multiview_verifier.h"
+#include "hisfm/verify/relative_pose.h"
+
+using namespace hisfm;
+
+namespace {
+
+// Area under the ROC curve: the probability that a random positive scores
+// above a random negative (ties count half).
+double Auc(std::vector<double> pos, std::vector<double> neg) {
+  if (pos.empty() || neg.empty()) return -1;
+  std::sort(neg.begin(), neg.end());
+  double sum = 0;
+  for (const double p : pos) {
+    const auto lo = std::lower_bound(neg.begin(), neg.end(), p);
+    const auto hi = std::upper_bound(neg.begin(), neg.end(), p);
+    sum += (lo - neg.begin()) + 0.5 * (hi - lo);
+  }
+  return sum / (static_cast<double>(pos.size()) * neg.size());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Built-in verifier evidence on labelled pairs");
+  std::string database_path, labels_path, output_path;
+  app.add_option("--database_path", database_path)->required();
+  app.add_option("--labels", labels_path,
+                 "Lines 'id1 id2 label' (1 true, 0 doppelganger, other: "
+                 "skipped)")
+      ->required();
+  app.add_option("--output", output_path, "TSV of every judged pair");
+  std::string reference_path;
+  app.add_option("--reference", reference_path,
+                 "Ground-truth model: adds pose errors of models and joins");
+  double radius = 3.0;
+  app.add_option("--radius", radius, "Keypoint radius (pixels)");
+  std::vector<ImageId> debug_pairs;
+  app.add_option("--debug_pair", debug_pairs, "id1 id2: print its models");
+  CLI11_PARSE(app, argc, argv);
+
+  Database database(database_path);
+  const ViewGraph graph = ViewGraph::FromDatabase(database, 15);
+  std::map<ImagePair, int> labels;
+  {
+    std::ifstream in(labels_path);
+    ImageId a, b;
+    int l;
+    while (in >> a >> b >> l) labels[ImagePair(a, b)] = l;
+  }
+  MultiViewVerifierOptions verifier_options;
+  verifier_options.geometry.keypoint_radius_px = radius;
+  MultiViewVerifier verifier(database, graph, verifier_options);
+  Reconstruction reference;
+  if (!reference_path.empty()) reference = ReadModel(reference_path);
+  // Angle (degrees) between a model's relative pose b_from_a and the truth.
+  const auto pose_error = [&](ImageId a, ImageId b, const Rigid3d& b_from_a,
+                              double* rot, double* dir) {
+    const Rigid3d ta = reference.images.at(a).cam_from_world;
+    const Rigid3d tb = reference.images.at(b).cam_from_world;
+    const Rigid3d truth = tb * ta.Inverse();
+    *rot = truth.rotation.angularDistance(b_from_a.rotation) * 180 / M_PI;
+    const double c = truth.translation.normalized().dot(
+        b_from_a.translation.normalized());
+    *dir = std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
+  };
+  const auto print_model = [&](const LocalModel& m) {
+    std::cout << "  model of " << m.images.empty() << " images:";
+    for (size_t v = 0; v < m.images.size(); ++v) {
+      std::cout << " " << m.images[v];
+      if (!reference.images.empty() && v > 0) {
+        double r, d;
+        pose_error(m.images[0], m.images[v], m.cam_from_model[v], &r, &d);
+        std::cout << " (rot " << r << " dir " << d << ")";
+      }
+    }
+    std::cout << "; points " << m.points.size() << " checked " << m.num_checked
+              << " found " << m.num_found << "\n";
+  };
+  for (size_t k = 0; k + 1 < debug_pairs.size(); k += 2) {
+    const ImagePair p(debug_pairs[k], debug_pairs[k + 1]);
+    const EdgeEvidence& ev = verifier.Evaluate(p);
+    std::cout << "pair " << p.image_id1 << " " << p.image_id2 << ": judged "
+              << ev.judged << " hyp " << ev.hypothesis << " join " << ev.join_i
+              << "/" << ev.join_j << " agree " << ev.agreement_i << "/"
+              << ev.agreement_j << " unique " << ev.num_unique << " visible "
+              << ev.num_visible << " found " << ev.num_found << "\n";
+    const auto geometry = verifier.cache().Pair(p.image_id1, p.image_id2);
+    for (const auto& h : geometry->hypotheses) {
+      double r = 0, d = 0;
+      if (!reference.images.empty()) {
+        pose_error(p.image_id1, p.image_id2, h.cam2_from_cam1, &r, &d);
+      }
+      std::cout << "  hypothesis support " << h.num_support << " rot " << r
+                << " dir " << d << "\n";
+    }
+    if (!reference.images.empty()) {
+      const Rigid3d truth = reference.images.at(p.image_id2).cam_from_world *
+                            reference.images.at(p.image_id1).cam_from_world.Inverse();
+      const Rigid3d unit(truth.rotation, truth.translation.normalized());
+      const Eigen::Matrix3d R = unit.rotation.toRotationMatrix();
+      const Eigen::Matrix3d E = EssentialOfPose(unit);
+      const auto& i1 = verifier.cache().Image(p.image_id1);
+      const auto& i2 = verifier.cache().Image(p.image_id2);
+      int support = 0, epipolar = 0;
+      for (const FeatureMatch& m : geometry->matches) {
+        support += SupportsPose(R, unit.translation, E, i1.normalized[m.idx1],
+                                i2.normalized[m.idx2], 1.0 / i1.camera.MeanFocal(), 0.99996);
+        epipolar += SupportsPose(R, unit.translation, E, i1.normalized[m.idx1],
+                                i2.normalized[m.idx2], 2.0 / i1.camera.MeanFocal(), -2);
+      }
+      std::cout << "  truth: support " << support << " epipolar " << epipolar << " of " << geometry->matches.size() << "\n";
+    }
+    print_model(verifier.EgoModel(p.image_id1, p.image_id2));
+    print_model(verifier.EgoModel(p.image_id2, p.image_id1));
+  }
+  std::ofstream out;
+  if (!output_path.empty()) {
+    out.open(output_path);
+    out << "id1\tid2\tlabel\tinliers\tjudged\tjoin_i\tjoin_j\tagree_i\t"
+           "agree_j\tunique\tvisible\tfound\tmissing_fraction\tconsistent\t"
+           "score\tdisplaced\tmodels_checked\tmodels_found\n";
+  }
+  std::vector<double> pos, neg;
+  int silent[2] = {0, 0};
+  Timer timer;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    auto it = labels.find(e.pair);
+    if (it == labels.end() || (it->second != 0 && it->second != 1)) continue;
+    const EdgeEvidence& ev = verifier.Evaluate(e.pair);
+    const double score = MultiViewVerifier::ScoreOf(ev);
+    if (!ev.judged) ++silent[it->second];
+    (it->second ? pos : neg).push_back(score);
+    if (out) {
+      out << e.pair.image_id1 << '\t' << e.pair.image_id2 << '\t'
+          << it->second << '\t' << e.weight << '\t' << ev.judged << '\t'
+          << ev.join_i << '\t' << ev.join_j << '\t' << ev.agreement_i << '\t'
+          << ev.agreement_j << '\t' << ev.num_unique << '\t'
+          << ev.num_visible << '\t' << ev.num_found << '\t'
+          << ev.MissingFraction() << '\t' << ev.num_consistent << '\t'
+          << score << '\t' << ev.num_found_displaced << '\t'
+          << ev.models_checked << '\t' << ev.models_found << '\n';
+    }
+  }
+  std::cout << "pairs: " << pos.size() << " true, " << neg.size()
+            << " false; silent " << silent[1] << " true, " << silent[0]
+            << " false; AUC(score) " << Auc(pos, neg) << "; "
+            << timer.ElapsedSeconds() << " s\n";
+  return 0;
+}

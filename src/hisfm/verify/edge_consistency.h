@@ -1,0 +1,90 @@
+// The multi-view test of an image pair: do the local models around its two
+// images agree once the pair joins them?
+//
+// Heinly, Dunn, Frahm, "Correcting for Duplicate Scene Structure in Sparse
+// 3D Reconstruction", ECCV 2014, split a reconstruction along a camera
+// spanning tree and flag a split whose two sides, joined, predict each
+// other's unique structure where the other side does not see it. Here the
+// sides are the ego models (local_model.h) of the pair's images i and j,
+// and the join is the pair itself: for each of its relative pose hypotheses
+// the depths of the pair's inliers that are model points fix the scale of
+// each model against the pair's baseline (their agreement measures how well
+// the pair joins the models); the best-joining hypothesis places model j in
+// model i's frame. A point of one model is unique if none of its keypoints
+// is matched to an image of the other model; unique points predicted
+// visible in the other model's images (local_model.h PredictVisible) should
+// land on a keypoint there. A true pair predicts what the other side sees;
+// a doppelganger, which joins two places through their repeated structure,
+// predicts one place's unique content (clutter, background, the print's
+// surroundings) into the other's images, where nothing is found (missing
+// correspondences, Zach et al. CVPR 2008; Cui & Tan ICCV 2015).
+// The pair's inliers consistent with the joined geometry (supporting the
+// hypothesis, and at the models' depth where they are model points) are
+// reported too: they are the matches the reconstruction may use.
+#pragma once
+
+#include <vector>
+
+#include "hisfm/verify/geometry_cache.h"
+#include "hisfm/verify/local_model.h"
+
+namespace hisfm {
+
+struct EdgeTestOptions {
+  /// Inliers of the pair that are model points and agree with the model's
+  /// depth within this relative tolerance (once scaled) join the model.
+  double depth_tolerance = 0.1;
+  /// Each model must be joined by at least this many agreeing inliers.
+  int min_join_points = 5;
+  /// Depth ratio allowed between a point's observing view and a view that
+  /// should see it (see LocalModelOptions::max_scale_change).
+  double max_scale_change = 2.0;
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
+
+/// What the test measured on one pair.
+struct EdgeEvidence {
+  /// False if a model is missing or the pair does not join them.
+  bool judged = false;
+  /// The hypothesis (index into PairGeometry::hypotheses) that joins best.
+  int hypothesis = -1;
+  /// Inliers that are points of model i / model j with a positive depth,
+  /// and the share of them that agree with the joining scale.
+  int join_i = 0;
+  int join_j = 0;
+  double agreement_i = 0;
+  double agreement_j = 0;
+  /// Unique points of both models, those predicted visible in the other
+  /// model's images, and those of them that landed on a keypoint.
+  int num_unique = 0;
+  int num_visible = 0;
+  int num_found = 0;
+  /// The same visible points displaced by a few keypoint radii in each of
+  /// four directions, found there: how often a projection lands on a
+  /// keypoint by chance, at the places where these points project (summed
+  /// over the four displacements; divide by 4 num_visible for a rate).
+  int num_found_displaced = 0;
+  /// Internal consistency counts of the two models
+  /// (LocalModel::num_checked, num_found), summed.
+  int models_checked = 0;
+  int models_found = 0;
+  /// Per inlier of the pair (oriented from i to j, PairGeometry::matches
+  /// order): consistent with the joined geometry.
+  std::vector<char> consistent;
+  int num_consistent = 0;
+
+  /// Unique points predicted visible but not found.
+  int num_missing() const { return num_visible - num_found; }
+  /// num_missing / num_unique (0 without unique points).
+  double MissingFraction() const;
+};
+
+/// Tests the pair (i, j) given the ego models of i (model_i.images[0] == i)
+/// and j, built without the other image.
+EdgeEvidence TestEdge(GeometryCache& cache, const LocalModel& model_i,
+                      const LocalModel& model_j, ImageId i, ImageId j,
+                      const EdgeTestOptions& options);
+
+}  // namespace hisfm

@@ -1,0 +1,85 @@
+#include "hisfm/verify/multiview_verifier.h"
+
+#include <algorithm>
+
+#include "hisfm/util/error.h"
+#include "hisfm/verify/match_burstiness.h"
+
+namespace hisfm {
+
+void MultiViewVerifierOptions::Check() const {
+  geometry.Check();
+  local_model.Check();
+  edge_test.Check();
+}
+
+MultiViewVerifier::MultiViewVerifier(const Database& database,
+                                     const ViewGraph& graph,
+                                     const MultiViewVerifierOptions& options)
+    : graph_(graph),
+      options_(options),
+      cache_(database, graph, options.geometry) {
+  options_.Check();
+  ranking_ = options_.rank_by_burstiness
+                 ? ReweightedGraph(graph, BurstinessWeights(database, graph))
+                 : graph;
+}
+
+const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId exclude) {
+  // The model only depends on `exclude` if it is among the candidates.
+  const std::vector<ImageId> candidates = StrongestNeighbours(
+      ranking_, ego, options_.local_model.num_candidates);
+  const ImageId key_exclude =
+      std::find(candidates.begin(), candidates.end(), exclude) !=
+              candidates.end()
+          ? exclude
+          : kInvalidImageId;
+  const auto key = std::make_pair(ego, key_exclude);
+  auto it = models_.find(key);
+  if (it != models_.end()) return it->second;
+  return models_
+      .emplace(key, BuildEgoModel(cache_, ranking_, ego, key_exclude,
+                                  options_.local_model))
+      .first->second;
+}
+
+const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {
+  auto it = evidence_.find(pair);
+  if (it != evidence_.end()) return it->second;
+  const ImageId i = pair.image_id1;
+  const ImageId j = pair.image_id2;
+  const LocalModel& model_i = EgoModel(i, j);
+  const LocalModel& model_j = EgoModel(j, i);
+  return evidence_
+      .emplace(pair,
+               TestEdge(cache_, model_i, model_j, i, j, options_.edge_test))
+      .first->second;
+}
+
+double MultiViewVerifier::ScoreOf(const EdgeEvidence& evidence) {
+  if (!evidence.judged) return 0.5;
+  return std::clamp(1.0 - evidence.MissingFraction(), 0.0, 1.0);
+}
+
+std::vector<double> MultiViewVerifier::Score(
+    const std::vector<ImagePair>& pairs) {
+  std::vector<double> scores;
+  scores.reserve(pairs.size());
+  for (const ImagePair& p : pairs) scores.push_back(ScoreOf(Evaluate(p)));
+  return scores;
+}
+
+std::vector<FeatureMatch> MultiViewVerifier::ConsistentInliers(
+    const ImagePair& pair) {
+  const EdgeEvidence& evidence = Evaluate(pair);
+  const std::shared_ptr<const PairGeometry> geometry =
+      cache_.Pair(pair.image_id1, pair.image_id2);
+  if (!evidence.judged) return geometry->matches;
+  std::vector<FeatureMatch> out;
+  for (size_t k = 0; k < geometry->matches.size(); ++k) {
+    if (evidence.consistent[k]) out.push_back(geometry->matches[k]);
+  }
+  return out;
+}
+
+}  // namespace hisfm

@@ -1,0 +1,84 @@
+// HiSfM's built-in disambiguator: the multi-view edge test
+// (edge_consistency.h) on ego models (local_model.h), with every model,
+// pose and verdict computed once.
+//
+// It needs no learned weights, no photos and no network: only the keypoints,
+// inlier matches and cameras of the COLMAP database. It judges any pair the
+// hierarchy asks about: bridges for the skeleton (as a BridgeScorer), and the
+// strongest pairs that the hierarchy trusts without verification (top-1
+// community edges, leaf and intra-community edges, paper Sec. III-A and
+// III-C). Its score is calibrated (see ScoreOf): a pair scoring s is true
+// about s of the time on the tuning half of the synthetic families, so that
+// one threshold (--HiSfM.verify_threshold) means the same for every
+// verifier.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hisfm/graph/bridge_scorer.h"
+#include "hisfm/graph/view_graph.h"
+#include "hisfm/io/database.h"
+#include "hisfm/verify/edge_consistency.h"
+#include "hisfm/verify/geometry_cache.h"
+#include "hisfm/verify/local_model.h"
+
+namespace hisfm {
+
+struct MultiViewVerifierOptions {
+  GeometryCacheOptions geometry;
+  LocalModelOptions local_model;
+  EdgeTestOptions edge_test;
+  /// Rank each image's neighbours for its ego model by burstiness-weighted
+  /// support (match_burstiness.h) instead of inlier count: in a street of
+  /// identical facades the strongest pairs by inliers are often
+  /// doppelgangers.
+  bool rank_by_burstiness = true;
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
+
+/// The built-in verifier (Name() "builtin").
+class MultiViewVerifier : public BridgeScorer {
+ public:
+  /// `graph` holds every verified pair (it names the pairs that exist and
+  /// orders each image's neighbours for its ego models). The database and
+  /// the graph must outlive the verifier.
+  MultiViewVerifier(const Database& database, const ViewGraph& graph,
+                    const MultiViewVerifierOptions& options = {});
+
+  std::string Name() const override { return "builtin"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
+
+  /// The evidence on a pair (computed once; `pair` must be an edge).
+  const EdgeEvidence& Evaluate(const ImagePair& pair);
+  /// The calibrated score of evidence, in [0, 1].
+  static double ScoreOf(const EdgeEvidence& evidence);
+  /// The ego model of `ego` built without `exclude` (computed once).
+  const LocalModel& EgoModel(ImageId ego, ImageId exclude);
+  /// The pair's inlier matches (oriented as stored: the smaller image id's
+  /// keypoints first) that agree with the geometry its test accepted; all
+  /// of them if the test could not judge it.
+  std::vector<FeatureMatch> ConsistentInliers(const ImagePair& pair);
+
+  GeometryCache& cache() { return cache_; }
+  /// The graph by which ego models rank neighbours (burstiness weights when
+  /// rank_by_burstiness, else the input graph).
+  const ViewGraph& RankingGraph() const { return ranking_; }
+  /// Pairs evaluated so far.
+  size_t NumEvaluated() const { return evidence_.size(); }
+
+ private:
+  const ViewGraph& graph_;
+  MultiViewVerifierOptions options_;
+  // The graph by which ego models rank neighbours.
+  ViewGraph ranking_;
+  GeometryCache cache_;
+  std::map<std::pair<ImageId, ImageId>, LocalModel> models_;
+  std::map<ImagePair, EdgeEvidence> evidence_;
+};
+
+}  // namespace hisfm
