@@ -1,4 +1,5 @@
 #include "hisfm/verify/two_view_pose.h"
+#include "hisfm/verify/triangulation.h"
 
 #include <gtest/gtest.h>
 
