@@ -14,6 +14,7 @@
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/multiview_verifier.h"
 #include "hisfm/verify/relative_pose.h"
+#include "hisfm/verify/triangulation.h"
 
 using namespace hisfm;
 
@@ -79,6 +80,34 @@ int main(int argc, char** argv) {
     *dir = std::acos(std::clamp(c, -1.0, 1.0)) * 180 / M_PI;
   };
   const auto print_model = [&](const LocalModel& m) {
+    if (!reference.images.empty() && m.images.size() == 3) {
+      // Ground-truth check of the model's two-view predictions into view 2.
+      const auto& iv = verifier.cache().Image(m.images[0]);
+      const auto& iu = verifier.cache().Image(m.images[2]);
+      const auto vw = verifier.cache().Pair(m.images[0], m.images[1]);
+      const Image& gv = reference.images.at(m.images[0]);
+      const Image& gu = reference.images.at(m.images[2]);
+      std::map<Point3DId, Eigen::Vector2d> seen_in_u;
+      for (const Point2D& p : gu.points2D) {
+        if (p.point3D_id != kInvalidPoint3DId) seen_in_u[p.point3D_id] = p.xy;
+      }
+      int shown = 0;
+      for (const FeatureMatch& mm : vw->matches) {
+        if (shown >= 8) break;
+        const Rigid3d poses[2] = {m.cam_from_model[0], m.cam_from_model[1]};
+        const Eigen::Vector2d x[2] = {iv.normalized[mm.idx1], verifier.cache().Image(m.images[1]).normalized[mm.idx2]};
+        const Eigen::Vector3d X = TriangulateMultiView(poses, x, 2);
+        const Eigen::Vector3d Y = m.cam_from_model[2] * X;
+        const Eigen::Vector2d px = iu.camera.NormalizedToPixel(Y.hnormalized());
+        const Point3DId pid = mm.idx1 < gv.points2D.size() ? gv.points2D[mm.idx1].point3D_id : kInvalidPoint3DId;
+        auto it = seen_in_u.find(pid);
+        std::cout << "    pred " << px.transpose() << " depth " << Y.z();
+        if (it != seen_in_u.end()) std::cout << " truth kp " << it->second.transpose() << " dist " << (it->second - px).norm();
+        else std::cout << " (not observed in view 2; pid " << (pid == kInvalidPoint3DId ? -1 : (long)pid) << ")";
+        std::cout << " anykp " << iu.grid.AnyWithin(px) << "\n";
+        ++shown;
+      }
+    }
     std::cout << "  model of " << m.images.empty() << " images:";
     for (size_t v = 0; v < m.images.size(); ++v) {
       std::cout << " " << m.images[v];

@@ -279,6 +279,175 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"isolated_images", h.isolated_images.size()}};
 }
 
+// Seconds spent in each stage, over all components.
+struct StageTimes {
+  double filter_databases = 0;
+  double scaffold = 0;
+  double attach = 0;
+  double bundle_adjustment = 0;
+};
+
+// Where one component's stages read and write.
+struct ComponentRun {
+  std::string dir;
+  std::string database_path;
+  std::string image_path;
+
+  std::string Log() const { return dir + "/colmap.log"; }
+};
+
+// Writes the component's filtered databases (the skeleton's edges, and the
+// whole hierarchy's; with the multi-view verifier's cleaned inliers) and its
+// image lists.
+void PrepareComponent(const ComponentRun& run, const HierarchyComponent& comp,
+                      const LoadedInput& in, StageTimes* times) {
+  Timer timer;
+  std::error_code ec;
+  fs::create_directories(run.dir + "/scaffold", ec);
+  fs::create_directories(run.dir + "/attached", ec);
+  FilteredDatabaseOptions filtered;
+  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  WriteFilteredDatabase(run.database_path, run.dir + "/skeleton.db",
+                        comp.skeleton_edges, filtered);
+  WriteFilteredDatabase(run.database_path, run.dir + "/hierarchy.db",
+                        comp.edges, filtered);
+  WriteImageList(comp.skeleton_images, in.names,
+                 run.dir + "/skeleton_images.txt");
+  WriteImageList(comp.images, in.names, run.dir + "/images.txt");
+  times->filter_databases += timer.ElapsedSeconds();
+}
+
+struct ScaffoldOutcome {
+  // The largest scaffold model, or "" when colmap could not start one.
+  std::string model_path;
+  size_t num_registered = 0;
+  // True when there is no scaffold and the leaves' stage starts from scratch.
+  bool fallback = false;
+};
+
+// Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton that
+// colmap cannot initialise (no good initial pair, or every sub-model below
+// its minimum size) is not an error: the attach stage then reconstructs the
+// component from scratch on the hierarchy's edges.
+ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
+                                    const HierarchyComponent& comp,
+                                    const HierarchicalMapperOptions& options,
+                                    StageTimes* times) {
+  LogHeading(StrCat("Scaffold: colmap mapper on ", comp.skeleton_images.size(),
+                    " skeletal images, ", comp.skeleton_edges.size(),
+                    " edges"));
+  std::vector<std::string> args = {
+      "mapper", "--database_path", run.dir + "/skeleton.db", "--image_path",
+      run.image_path, "--output_path", run.dir + "/scaffold",
+      "--image_list_path", run.dir + "/skeleton_images.txt"};
+  args.insert(args.end(), options.mapper_args.begin(),
+              options.mapper_args.end());
+  for (const char* flag :
+       {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
+    AddDefaultFlag(options.mapper_args, flag,
+                   FormatScientific(options.scaffold_ba_global_ratio), &args);
+  AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_max_refinements",
+                 std::to_string(options.scaffold_ba_global_max_refinements),
+                 &args);
+  // A partial scaffold is still an anchor for the attach stage: keep small
+  // sub-models (colmap discards those under 10 images).
+  AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
+                 std::to_string(options.min_model_size), &args);
+  AddBundleAdjustmentFlags(options, &args);
+  ScaffoldOutcome outcome;
+  Timer timer;
+  try {
+    RunColmapWithProgress(options.colmap, args, run.Log(),
+                          "Scaffold: registering images",
+                          comp.skeleton_images.size(), ParseMapperProgress);
+    outcome.model_path = LargestModel(run.dir + "/scaffold");
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("scaffold: {}", e.what());
+  }
+  times->scaffold += timer.ElapsedSeconds();
+  if (outcome.model_path.empty()) {
+    outcome.fallback = true;
+    HISFM_LOG_WARN(
+        "scaffold: colmap could not start a model on the {} skeletal images; "
+        "reconstructing the component from its whole hierarchy instead",
+        comp.skeleton_images.size());
+    return outcome;
+  }
+  outcome.num_registered = ReadModelBinary(outcome.model_path).NumRegImages();
+  HISFM_LOG_INFO("scaffold: {}/{} skeletal images registered ({:.1f} s)",
+                 outcome.num_registered, comp.skeleton_images.size(),
+                 timer.ElapsedSeconds());
+  return outcome;
+}
+
+// Registers the remaining images on the hierarchy's edges only (paper, Sec.
+// III-D), starting from the scaffold, or from scratch without one. Returns
+// the model folder.
+std::string AttachLeaves(const ComponentRun& run,
+                         const HierarchyComponent& comp,
+                         const HierarchicalMapperOptions& options,
+                         const std::string& scaffold, StageTimes* times) {
+  const size_t scaffold_size =
+      scaffold.empty() ? 0 : ReadModelBinary(scaffold).NumRegImages();
+  LogHeading(StrCat("Attach: registering ", comp.images.size() - scaffold_size,
+                    " images on the hierarchy's ", comp.edges.size(),
+                    " edges"));
+  std::vector<std::string> args = {"mapper", "--database_path",
+                                   run.dir + "/hierarchy.db", "--image_path",
+                                   run.image_path};
+  if (!scaffold.empty()) {
+    args.insert(args.end(), {"--input_path", scaffold});
+  }
+  args.insert(args.end(), {"--output_path", run.dir + "/attached",
+                           "--image_list_path", run.dir + "/images.txt"});
+  args.insert(args.end(), options.mapper_args.begin(),
+              options.mapper_args.end());
+  AddBundleAdjustmentFlags(options, &args);
+  if (options.attach_local_only && !scaffold.empty()) {
+    // No periodic global bundle adjustment while attaching: local bundle
+    // adjustment after each registration, one global one at the end.
+    for (const char* flag :
+         {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
+      AddDefaultFlag(options.mapper_args, flag, "1000000", &args);
+    for (const char* flag :
+         {"--Mapper.ba_global_images_freq", "--Mapper.ba_global_points_freq"})
+      AddDefaultFlag(options.mapper_args, flag, "1000000000", &args);
+  }
+  const double seconds = RunColmapWithProgress(
+      options.colmap, args, run.Log(), "Attach: registering images",
+      comp.images.size(), ParseMapperProgress);
+  times->attach += seconds;
+  std::string attached = run.dir + "/attached";
+  if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
+  ThrowUnless(!attached.empty(),
+              StrCat("colmap wrote no model after attaching leaves; see ",
+                     run.Log()));
+  HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
+                 ReadModelBinary(attached).NumRegImages(), comp.images.size(),
+                 seconds);
+  return attached;
+}
+
+// The optional extra global bundle adjustment; returns the final model.
+std::string RefineModel(const ComponentRun& run, const std::string& attached,
+                        const HierarchicalMapperOptions& options,
+                        StageTimes* times) {
+  if (!options.global_bundle_adjustment) return attached;
+  LogHeading("Global bundle adjustment");
+  std::error_code ec;
+  fs::create_directories(run.dir + "/refined", ec);
+  const double seconds = RunColmap(
+      options.colmap,
+      {"bundle_adjuster", "--input_path", attached, "--output_path",
+       run.dir + "/refined"},
+      run.Log());
+  times->bundle_adjustment += seconds;
+  HISFM_LOG_INFO("bundle adjustment done ({:.1f} s)", seconds);
+  return run.dir + "/refined";
+}
+
 }  // namespace
 
 nlohmann::json ComputeViewGraphJson(const std::string& database_path,
@@ -336,8 +505,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   }
 
   nlohmann::json models = nlohmann::json::array();
-  double scaffold_seconds = 0, attach_seconds = 0, ba_seconds = 0,
-         filter_seconds = 0;
+  nlohmann::json failed = nlohmann::json::array();
+  StageTimes times;
   size_t model_index = 0;
   size_t num_registered = 0;
   for (size_t c = 0; c < h.components.size(); ++c) {
@@ -347,119 +516,49 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                      comp.images.size());
       continue;
     }
-    const std::string dir = StrCat(work, "/component", c);
-    fs::create_directories(dir + "/scaffold", ec);
-    fs::create_directories(dir + "/attached", ec);
-    fs::create_directories(dir + "/refined", ec);
-    const std::string log = dir + "/colmap.log";
     ThrowIfInterrupted();
     LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
                       comp.skeleton_images.size(), " in the scaffold"));
-
-    Timer timer;
-    FilteredDatabaseOptions filtered;
-    if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
-    WriteFilteredDatabase(paths.database_path, dir + "/skeleton.db",
-                          comp.skeleton_edges, filtered);
-    WriteFilteredDatabase(paths.database_path, dir + "/hierarchy.db",
-                          comp.edges, filtered);
-    WriteImageList(comp.skeleton_images, in.names, dir + "/skeleton_images.txt");
-    WriteImageList(comp.images, in.names, dir + "/images.txt");
-    filter_seconds += timer.ElapsedSeconds();
-
-    LogHeading(StrCat("Scaffold: colmap mapper on ",
-                      comp.skeleton_images.size(), " skeletal images, ",
-                      comp.skeleton_edges.size(), " edges"));
-    std::vector<std::string> args = {
-        "mapper", "--database_path", dir + "/skeleton.db", "--image_path",
-        paths.image_path, "--output_path", dir + "/scaffold",
-        "--image_list_path", dir + "/skeleton_images.txt"};
-    args.insert(args.end(), options.mapper_args.begin(),
-                options.mapper_args.end());
-    for (const char* flag :
-         {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
-      AddDefaultFlag(options.mapper_args, flag,
-                     FormatScientific(options.scaffold_ba_global_ratio), &args);
-    AddDefaultFlag(options.mapper_args, "--Mapper.ba_global_max_refinements",
-                   std::to_string(options.scaffold_ba_global_max_refinements),
-                   &args);
-    AddBundleAdjustmentFlags(options, &args);
-    const double t_scaffold = RunColmapWithProgress(
-        options.colmap, args, log, "Scaffold: registering images",
-        comp.skeleton_images.size(), ParseMapperProgress);
-    scaffold_seconds += t_scaffold;
-    const std::string scaffold = LargestModel(dir + "/scaffold");
-    if (scaffold.empty()) {
-      HISFM_LOG_WARN("component {}: colmap built no scaffold ({:.1f} s)", c,
-                     t_scaffold);
-      continue;
+    const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
+                           paths.image_path};
+    try {
+      Timer timer;
+      PrepareComponent(run, comp, in, &times);
+      const ScaffoldOutcome scaffold = ReconstructScaffold(run, comp, options,
+                                                           &times);
+      const std::string attached =
+          AttachLeaves(run, comp, options, scaffold.model_path, &times);
+      const std::string final_model = RefineModel(run, attached, options,
+                                                  &times);
+      const Reconstruction model = ReadModelBinary(final_model);
+      const std::string model_dir = StrCat(output.path(), "/", model_index++);
+      fs::create_directories(model_dir, ec);
+      WriteModelBinary(model, model_dir);
+      num_registered += model.NumRegImages();
+      nlohmann::json stats = ModelStats(model);
+      stats["component_images"] = comp.images.size();
+      stats["scaffold_images"] = comp.skeleton_images.size();
+      stats["scaffold_registered"] = scaffold.num_registered;
+      stats["scaffold_fallback"] = scaffold.fallback;
+      stats["path"] = std::to_string(model_index - 1);
+      models.push_back(stats);
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      // One failing component does not discard the others.
+      HISFM_LOG_WARN("component {} failed: {}", c, e.what());
+      failed.push_back({{"component", c},
+                        {"images", comp.images.size()},
+                        {"error", e.what()}});
     }
-    const size_t scaffold_size = ReadModelBinary(scaffold).NumRegImages();
-    HISFM_LOG_INFO("scaffold: {}/{} skeletal images registered ({:.1f} s)",
-                   scaffold_size, comp.skeleton_images.size(), t_scaffold);
-
-    LogHeading(StrCat("Attach: registering ",
-                      comp.images.size() - scaffold_size,
-                      " images on the hierarchy's ", comp.edges.size(),
-                      " edges"));
-    args = {"mapper", "--database_path", dir + "/hierarchy.db",
-            "--image_path", paths.image_path, "--input_path", scaffold,
-            "--output_path", dir + "/attached", "--image_list_path",
-            dir + "/images.txt"};
-    args.insert(args.end(), options.mapper_args.begin(),
-                options.mapper_args.end());
-    AddBundleAdjustmentFlags(options, &args);
-    if (options.attach_local_only) {
-      // No periodic global bundle adjustment while attaching: local bundle
-      // adjustment after each registration, one global one at the end.
-      for (const char* flag :
-           {"--Mapper.ba_global_images_ratio", "--Mapper.ba_global_points_ratio"})
-        AddDefaultFlag(options.mapper_args, flag, "1000000", &args);
-      for (const char* flag :
-           {"--Mapper.ba_global_images_freq", "--Mapper.ba_global_points_freq"})
-        AddDefaultFlag(options.mapper_args, flag, "1000000000", &args);
-    }
-    const double t_attach = RunColmapWithProgress(
-        options.colmap, args, log, "Attach: registering images",
-        comp.images.size(), ParseMapperProgress);
-    attach_seconds += t_attach;
-    std::string attached = dir + "/attached";
-    if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
-    ThrowUnless(!attached.empty(),
-                StrCat("colmap wrote no model after attaching leaves; see ",
-                       log));
-    HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
-                   ReadModelBinary(attached).NumRegImages(),
-                   comp.images.size(), t_attach);
-
-    std::string final_model = attached;
-    if (options.global_bundle_adjustment) {
-      LogHeading("Global bundle adjustment");
-      const double t_ba = RunColmap(options.colmap,
-                                    {"bundle_adjuster", "--input_path",
-                                     attached, "--output_path",
-                                     dir + "/refined"},
-                                    log);
-      ba_seconds += t_ba;
-      final_model = dir + "/refined";
-      HISFM_LOG_INFO("bundle adjustment done ({:.1f} s)", t_ba);
-    }
-    const Reconstruction model = ReadModelBinary(final_model);
-    const std::string model_dir =
-        StrCat(output.path(), "/", model_index++);
-    fs::create_directories(model_dir, ec);
-    WriteModelBinary(model, model_dir);
-    num_registered += model.NumRegImages();
-    nlohmann::json stats = ModelStats(model);
-    stats["component_images"] = comp.images.size();
-    stats["scaffold_images"] = comp.skeleton_images.size();
-    stats["scaffold_registered"] = scaffold_size;
-    stats["path"] = std::to_string(model_index - 1);
-    models.push_back(stats);
   }
   ThrowUnless(model_index > 0,
               StrCat("no model could be reconstructed; see the logs in ",
-                     work));
+                     work, failed.empty() ? std::string()
+                                          : StrCat(" (first failure: ",
+                                                   failed[0]["error"]
+                                                       .get<std::string>(),
+                                                   ")")));
 
   nlohmann::json summary = HierarchySummary(in);
   summary["database_path"] = fs::absolute(paths.database_path).string();
@@ -467,6 +566,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   summary["work_path"] = fs::absolute(work).string();
   summary["registered_images"] = num_registered;
   summary["models"] = models;
+  summary["failed_components"] = failed;
   if (!models.empty()) {
     summary["points3D"] = models[0]["points3D"];
     summary["mean_reprojection_error"] = models[0]["mean_reprojection_error"];
@@ -475,10 +575,10 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   summary["timings"] = {{"read_database", in.read_seconds},
                         {"filter_pairs", in.filter_seconds},
                         {"build_hierarchy", in.graph_seconds},
-                        {"filter_databases", filter_seconds},
-                        {"scaffold", scaffold_seconds},
-                        {"attach", attach_seconds},
-                        {"global_bundle_adjustment", ba_seconds},
+                        {"filter_databases", times.filter_databases},
+                        {"scaffold", times.scaffold},
+                        {"attach", times.attach},
+                        {"global_bundle_adjustment", times.bundle_adjustment},
                         {"total", total.ElapsedSeconds()}};
   if (!paths.options_record.empty()) {
     WriteFileAtomically(output.path() + "/hisfm_options.ini",

@@ -1,7 +1,11 @@
 #include "hisfm/verify/local_model.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
 
 #include "hisfm/util/error.h"
 #include "hisfm/verify/triangulation.h"
@@ -22,6 +26,7 @@ double ReprojectionError(const ImageGeometry& image, const Eigen::Vector3d& Y,
 // those that land on a keypoint.
 void CheckTwoViewPoints(GeometryCache& cache, const LocalModelOptions& options,
                         int v, int w, int u, LocalModel* model) {
+  const double min_angle = options.min_triangulation_angle_deg * M_PI / 180.0;
   const ImageGeometry& iv = cache.Image(model->images[v]);
   const ImageGeometry& iw = cache.Image(model->images[w]);
   const ImageGeometry& iu = cache.Image(model->images[u]);
@@ -42,6 +47,9 @@ void CheckTwoViewPoints(GeometryCache& cache, const LocalModelOptions& options,
         ReprojectionError(iw, Yw, m.idx2) > options.max_reprojection_px) {
       continue;
     }
+    const Eigen::Vector3d cv = poses[0].Inverse().translation;
+    const Eigen::Vector3d cw = poses[1].Inverse().translation;
+    if (TriangulationAngle(cv, cw, X) < min_angle) continue;
     Eigen::Vector2d pixel;
     if (!PredictVisible(iu, model->cam_from_model[u], X, Yv.z(),
                         options.max_scale_change, &pixel)) {
@@ -52,14 +60,118 @@ void CheckTwoViewPoints(GeometryCache& cache, const LocalModelOptions& options,
   }
 }
 
+// Reprojection residual (pixels) of one observation, for Ceres.
+struct ReprojectionResidual {
+  ReprojectionResidual(const Eigen::Vector2d& x, double focal)
+      : x_(x), focal_(focal) {}
+
+  template <typename T>
+  bool operator()(const T* rotation, const T* translation, const T* point,
+                  T* residual) const {
+    T p[3];
+    ceres::AngleAxisRotatePoint(rotation, point, p);
+    for (int k = 0; k < 3; ++k) p[k] += translation[k];
+    residual[0] = T(focal_) * (p[0] / p[2] - T(x_.x()));
+    residual[1] = T(focal_) * (p[1] / p[2] - T(x_.y()));
+    return true;
+  }
+
+  Eigen::Vector2d x_;
+  double focal_;
+};
+
 }  // namespace
+
+void BundleAdjustModel(GeometryCache& cache, const LocalModelOptions& options,
+                       LocalModel* model) {
+  const size_t num_views = model->images.size();
+  if (num_views < 2 || model->points.empty()) return;
+  std::vector<std::array<double, 3>> rotations(num_views), translations(
+                                                               num_views);
+  for (size_t v = 0; v < num_views; ++v) {
+    const Eigen::AngleAxisd aa(model->cam_from_model[v].rotation);
+    const Eigen::Vector3d r = aa.angle() * aa.axis();
+    const Eigen::Vector3d& t = model->cam_from_model[v].translation;
+    rotations[v] = {r.x(), r.y(), r.z()};
+    translations[v] = {t.x(), t.y(), t.z()};
+  }
+  std::vector<std::array<double, 3>> points(model->points.size());
+  for (size_t p = 0; p < points.size(); ++p) {
+    points[p] = {model->points[p].x(), model->points[p].y(),
+                 model->points[p].z()};
+  }
+  ceres::Problem problem;
+  for (size_t v = 0; v < num_views; ++v) {
+    const ImageGeometry& image = cache.Image(model->images[v]);
+    for (size_t p = 0; p < points.size(); ++p) {
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<ReprojectionResidual, 2, 3, 3, 3>(
+              new ReprojectionResidual(
+                  image.normalized[model->keypoints[v][p]],
+                  image.camera.MeanFocal())),
+          new ceres::HuberLoss(1.0), rotations[v].data(),
+          translations[v].data(), points[p].data());
+    }
+  }
+  problem.SetParameterBlockConstant(rotations[0].data());
+  problem.SetParameterBlockConstant(translations[0].data());
+  problem.SetManifold(translations[1].data(), new ceres::SphereManifold<3>());
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_SCHUR;
+  solver.max_num_iterations = 20;
+  solver.num_threads = 1;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  for (size_t v = 0; v < num_views; ++v) {
+    const Eigen::Vector3d r(rotations[v][0], rotations[v][1], rotations[v][2]);
+    const double angle = r.norm();
+    const Eigen::Quaterniond q =
+        angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, r / angle))
+                  : Eigen::Quaterniond::Identity();
+    model->cam_from_model[v] = Rigid3d(
+        q, Eigen::Vector3d(translations[v][0], translations[v][1],
+                           translations[v][2]));
+  }
+  // Keep the points that reproject well in every view.
+  LocalModel kept = *model;
+  kept.points.clear();
+  for (auto& k : kept.keypoints) k.clear();
+  for (size_t p = 0; p < points.size(); ++p) {
+    const Eigen::Vector3d X(points[p][0], points[p][1], points[p][2]);
+    bool ok = X.allFinite();
+    for (size_t v = 0; v < num_views && ok; ++v) {
+      ok = ReprojectionError(cache.Image(model->images[v]),
+                             model->cam_from_model[v] * X,
+                             model->keypoints[v][p]) <=
+           options.max_reprojection_px;
+    }
+    if (!ok) continue;
+    kept.points.push_back(X);
+    for (size_t v = 0; v < num_views; ++v) {
+      kept.keypoints[v].push_back(model->keypoints[v][p]);
+    }
+  }
+  *model = std::move(kept);
+}
+
+void CheckModelConsistency(GeometryCache& cache,
+                           const LocalModelOptions& options,
+                           LocalModel* model) {
+  model->num_checked = 0;
+  model->num_found = 0;
+  if (model->images.size() != 3) return;
+  CheckTwoViewPoints(cache, options, 0, 1, 2, model);
+  CheckTwoViewPoints(cache, options, 0, 2, 1, model);
+}
 
 void LocalModelOptions::Check() const {
   HISFM_CHECK_OPTION(num_candidates >= 2);
   HISFM_CHECK_OPTION(max_reprojection_px > 0);
   HISFM_CHECK_OPTION(min_points >= 3);
-  HISFM_CHECK_OPTION(min_consistency >= 0 && min_consistency <= 1);
   HISFM_CHECK_OPTION(max_scale_change >= 1);
+  HISFM_CHECK_OPTION(min_triangulation_angle_deg >= 0 &&
+                     min_triangulation_angle_deg < 90);
 }
 
 double LocalModel::Consistency() const {
@@ -149,8 +261,7 @@ LocalModel BuildTripletModel(GeometryCache& cache, ImageId ego, ImageId a,
   if (static_cast<int>(model.points.size()) < options.min_points) {
     return LocalModel();
   }
-  CheckTwoViewPoints(cache, options, 0, 1, 2, &model);
-  CheckTwoViewPoints(cache, options, 0, 2, 1, &model);
+  CheckModelConsistency(cache, options, &model);
   return model;
 }
 
@@ -159,9 +270,7 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                          const LocalModelOptions& options) {
   const std::vector<ImageId> candidates =
       StrongestNeighbours(graph, ego, options.num_candidates, exclude);
-  LocalModel best_consistent;
-  LocalModel best_weighted;
-  double best_weight = -1;
+  LocalModel best;
   for (size_t x = 0; x < candidates.size(); ++x) {
     for (size_t y = x + 1; y < candidates.size(); ++y) {
       const size_t num_a = cache.Pair(ego, candidates[x])->hypotheses.size();
@@ -173,20 +282,19 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                                 static_cast<int>(ha), static_cast<int>(hc),
                                 options);
           if (model.empty()) continue;
-          const double weight = model.points.size() * model.Consistency();
-          if (model.Consistency() >= options.min_consistency &&
-              model.points.size() > best_consistent.points.size()) {
-            best_consistent = model;
-          }
-          if (weight > best_weight) {
-            best_weight = weight;
-            best_weighted = std::move(model);
-          }
+          if (model.points.size() > best.points.size()) best = std::move(model);
         }
       }
     }
   }
-  return best_consistent.empty() ? best_weighted : best_consistent;
+  if (options.bundle_adjust && !best.empty()) {
+    BundleAdjustModel(cache, options, &best);
+    if (static_cast<int>(best.points.size()) < options.min_points) {
+      return LocalModel();
+    }
+    CheckModelConsistency(cache, options, &best);
+  }
+  return best;
 }
 
 }  // namespace hisfm

@@ -39,13 +39,16 @@ struct LocalModelOptions {
   /// Shared keypoints needed to fix the scale between the two pairs, and
   /// points needed to form a model.
   int min_points = 5;
-  /// A triplet is preferred when at least this share of its two-view points
-  /// predicted visible in its third view land on a keypoint there.
-  double min_consistency = 0.8;
   /// A point is predicted visible in a view only if its depth there is
   /// within this factor of its depth in the view that observed it (a
   /// feature detector's scale tolerance).
   double max_scale_change = 2.0;
+  /// Two-view points seen under a smaller triangulation angle (degrees) are
+  /// too uncertain in depth to be predicted into the third view.
+  double min_triangulation_angle_deg = 2.0;
+  /// Refine the chosen triplet by bundle adjustment (Ceres) before its
+  /// points are used for predictions.
+  bool bundle_adjust = true;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -90,12 +93,27 @@ LocalModel BuildTripletModel(GeometryCache& cache, ImageId ego, ImageId a,
                              ImageId c, int hypothesis_a, int hypothesis_c,
                              const LocalModelOptions& options);
 
+/// Refines a model's poses and points by bundle adjustment (reprojection
+/// error, Huber loss; the ego camera fixed and the baseline to images[1]
+/// kept at unit length), then drops points that still reproject worse than
+/// max_reprojection_px in a view.
+void BundleAdjustModel(GeometryCache& cache, const LocalModelOptions& options,
+                       LocalModel* model);
+
+/// Recounts the model's internal consistency (LocalModel::num_checked,
+/// num_found): the two-view points of its pairs with the ego image,
+/// predicted into the third view.
+void CheckModelConsistency(GeometryCache& cache,
+                           const LocalModelOptions& options,
+                           LocalModel* model);
+
 /// The ego model of `ego`: among the triplets of ego with two of its
 /// num_candidates strongest neighbours in `graph` (other than `exclude`,
 /// which may be kInvalidImageId) and every combination of their pose
-/// hypotheses, the one with the most points among those at least
-/// min_consistency consistent, else the one with the most points weighted
-/// by consistency. Empty if no triplet forms.
+/// hypotheses, the one with the most points (a triplet of true neighbours
+/// shares the scene's unique content as well as its repeated structure; a
+/// triplet joined through a doppelganger shares only the latter), refined
+/// by bundle adjustment. Empty if no triplet forms.
 LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                          ImageId ego, ImageId exclude,
                          const LocalModelOptions& options);
