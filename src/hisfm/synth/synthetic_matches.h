@@ -41,8 +41,10 @@
 //    that lie on their epipolar lines. The geometry is written as
 //    CALIBRATED (E and its F) or UNCALIBRATED (the fitted F, and E of the
 //    best essential candidate), with qvec and tvec left zero as COLMAP's
-//    matchers leave them. PLANAR and PANORAMIC configurations are not
-//    imitated.
+//    matchers leave them. Homographies fitted to each of the three largest
+//    groups (transfer error within max_error) decide, as in COLMAP, whether
+//    the pair is PLANAR_OR_PANORAMIC: a homography with more than 0.8 times
+//    the kept matrix's inliers (its inliers replace those when more).
 #pragma once
 
 #include <functional>
