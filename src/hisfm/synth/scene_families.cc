@@ -364,11 +364,6 @@ Eigen::Vector3d JitteredCenter(const Eigen::Vector3d& center, double sigma,
 // The distinct transforms between replicas of the same motif.
 void BuildRelations(SymmetryGroup* symmetry) {
   const size_t n = symmetry->replica_frames.size();
-  ThrowUnless(n <= kMaxFamilyReplicas,
-              StrCat("the scene needs ", n, " copies of its pattern (at most ",
-                     kMaxFamilyReplicas,
-                     "): use fewer images, a larger --camera_spacing or a "
-                     "larger --period"));
   symmetry->relations.assign(1, Rigid3d());
   symmetry->relation_table.assign(n * n, -1);
   std::map<std::array<int64_t, 4>, int> ids;
@@ -425,6 +420,13 @@ class StreetBuilder {
   void AddGroundRect(const Rect& rect) { extra_ground_.push_back(rect); }
 
   void Build() {
+    size_t num_copies = corners_.size();
+    for (const Face& face : faces_) num_copies += face.num_periods;
+    ThrowUnless(num_copies <= kMaxFamilyReplicas,
+                StrCat("the scene needs ", num_copies,
+                       " copies of its pattern (at most ", kMaxFamilyReplicas,
+                       "): use fewer images, a smaller --camera_spacing or a "
+                       "larger --period"));
     AddFacades();
     const size_t num_facade_points = layout_->points.size();
     AddClutter(num_facade_points);
