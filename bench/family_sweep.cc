@@ -7,7 +7,8 @@
 // at least 95% of image pairs within 5 degrees in relative rotation and
 // translation direction, every image registered, not split), and prints a
 // Markdown table with one row per instance and a summary per family and per
-// split.
+// split (means over instances; a failed run or one without a model counts
+// as 0% of pairs within 5 degrees).
 //
 // Split rule: odd seeds form the "tuning" split, even seeds the "held-out"
 // split. Thresholds are chosen on tuning instances only and reported on the
