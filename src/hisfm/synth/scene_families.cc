@@ -5,7 +5,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-#include <unordered_map>
 
 #include "hisfm/synth/synth_random.h"
 #include "hisfm/util/error.h"
@@ -52,8 +51,11 @@ uint32_t FamilySeed(const SynthOptions& options, SynthSceneType type,
   return DeriveSeed(options.seed, 100 + static_cast<uint64_t>(type), stream);
 }
 
-double RoundTo(double value, double step) {
-  return std::round(value / step) * step;
+// `value` rounded to `decimals` decimals (the nearest double: 0.95, not
+// 95 * 0.01).
+double RoundTo(double value, int decimals) {
+  const double scale = std::pow(10.0, decimals);
+  return std::round(value * scale) / scale;
 }
 
 // A point of a motif in the motif's frame (or of a unique surface in the
@@ -1012,21 +1014,21 @@ SynthFamilyOptions ResolveFamilyOptions(const SynthOptions& options) {
   SynthRandom rng(FamilySeed(options, type, kStreamParameters));
   // Every value is drawn whatever the family, in a fixed order, and rounded
   // so that it can be passed back as a flag.
-  family.period = RoundTo(rng.Uniform(2.0, 8.0), 0.01);
+  family.period = RoundTo(rng.Uniform(2.0, 8.0), 2);
   const double spacing_min = std::max(0.5, family.period / 10.0);
   const double spacing_max = std::min(2.0, family.period / 2.0);
   family.camera_spacing =
-      std::clamp(RoundTo(rng.Uniform(spacing_min, spacing_max), 0.01),
+      std::clamp(RoundTo(rng.Uniform(spacing_min, spacing_max), 2),
                  spacing_min, spacing_max);
-  family.relief_depth = RoundTo(rng.Uniform(0.0, 1.5), 0.01);
-  family.clutter_density = RoundTo(rng.Uniform(0.1, 0.5), 0.01);
-  family.facade_distance = RoundTo(rng.Uniform(5.0, 15.0), 0.01);
-  family.position_jitter = RoundTo(rng.Uniform(0.0, 0.2), 0.001);
-  family.rotation_jitter = RoundTo(rng.Uniform(0.0, 4.0), 0.01);
-  family.block_aspect = RoundTo(rng.Uniform(0.5, 1.0), 0.01);
-  family.view_angle = RoundTo(rng.Uniform(40.0, 60.0), 0.1);
+  family.relief_depth = RoundTo(rng.Uniform(0.0, 1.5), 2);
+  family.clutter_density = RoundTo(rng.Uniform(0.1, 0.5), 2);
+  family.facade_distance = RoundTo(rng.Uniform(5.0, 15.0), 2);
+  family.position_jitter = RoundTo(rng.Uniform(0.0, 0.2), 3);
+  family.rotation_jitter = RoundTo(rng.Uniform(0.0, 4.0), 2);
+  family.block_aspect = RoundTo(rng.Uniform(0.5, 1.0), 2);
+  family.view_angle = RoundTo(rng.Uniform(40.0, 60.0), 1);
   family.symmetry_order = 2 + static_cast<int>(rng.UniformInt(3));
-  family.ring_radius = RoundTo(rng.Uniform(3.0, 6.0), 0.01);
+  family.ring_radius = RoundTo(rng.Uniform(3.0, 6.0), 2);
   family.Check();
   return family;
 }

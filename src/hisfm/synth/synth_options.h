@@ -58,9 +58,11 @@ bool IsSynthFamily(SynthSceneType type);
 
 /// How two_view_geometries are obtained.
 enum class SynthTwoViewMode {
-  /// Computed from the ground truth: for every pair, the larger group of
-  /// matches consistent with one epipolar geometry (the true one or a
-  /// doppelganger one) is kept, as RANSAC would.
+  /// Computed from the ground truth: for every pair, the epipolar geometry
+  /// (the true one or a doppelganger one) with the most matches within
+  /// max_error is kept with all those matches, as RANSAC would; family
+  /// scenes also imitate COLMAP's choice between essential, fundamental and
+  /// homography matrices (hisfm/synth/synthetic_matches.h).
   kDirect,
   /// Raw matches are written to a text file and verified by
   /// `colmap matches_importer --match_type raw`.
