@@ -25,13 +25,13 @@
 //    with an n-fold print (symmetry_order), a ring of cameras of radius
 //    ring_radius, a unique surrounding wall and ground of clutter_density
 //    points per object point.
-// The streets carry unique clutter (poles, trees, parked cars, kiosks)
-// between the path and the facades, which hides facade points, and
-// optionally a unique ground. With unique_pattern every copy of the motif is
+// The streets carry unique clutter (poles, trees, parked cars, kiosks; one
+// object per 5 m of facade, within 0.6 D of it), which hides facade points,
+// and optionally a unique ground. With unique_pattern every copy of the motif is
 // different (the family's control).
 //
 // Facade point density: the facades carry 800 * object_density points per
-// image area seen head-on from D (about 13.6 per m^2 at D = 6 m with the
+// image area seen head-on from D (about 18 per m^2 at D = 6 m with the
 // default camera), i.e. the density falls as 1 / D^2: a farther facade
 // shows coarser texture to a detector of fixed image resolution. Likewise
 // points seen farther than D or obliquely are detected less often
