@@ -47,10 +47,11 @@ int RunSynth(int argc, char** argv) {
                  "Multiplier of the points on the object / facades")
       ->capture_default_str();
   app.add_option("--street_block_houses", options.street_block_houses,
-                 "Street: houses per block of identical facades")
+                 "street: houses per block of identical facades")
       ->capture_default_str();
   app.add_option("--background_density", options.background_density,
-                 "Multiplier of the points of the unique background")
+                 "Fixed scenes: multiplier of the points of the unique "
+                 "background (families: --clutter_density)")
       ->capture_default_str();
   app.add_option("--keypoint_noise", options.keypoint_noise,
                  "Keypoint noise standard deviation (pixels)")
@@ -69,6 +70,61 @@ int RunSynth(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--outlier_ratio", options.outlier_ratio,
                  "Random wrong matches per correct-appearance match")
+      ->capture_default_str();
+  SynthFamilyOptions& family = options.family;
+  app.add_option("--randomize_family", family.randomize,
+                 "Families: draw the parameters marked 'random' from their "
+                 "ranges with the seed (written into synth_summary.json)")
+      ->capture_default_str();
+  app.add_option("--period", family.period,
+                 "Streets: period of the facade pattern (m; random 2-8)")
+      ->capture_default_str();
+  app.add_option("--camera_spacing", family.camera_spacing,
+                 "Streets: metres between consecutive cameras (random 0.5-2, "
+                 "period/spacing in 2-10)")
+      ->capture_default_str();
+  app.add_option("--facade_distance", family.facade_distance,
+                 "Streets: distance from the camera path to the facades (m; "
+                 "random 5-15)")
+      ->capture_default_str();
+  app.add_option("--relief_depth", family.relief_depth,
+                 "Streets: facade relief, 0 = planar (m; random 0-1.5)")
+      ->capture_default_str();
+  app.add_option("--clutter_density", family.clutter_density,
+                 "Families: unique clutter points per repeated point (random "
+                 "0.1-0.5)")
+      ->capture_default_str();
+  app.add_option("--block_length", family.block_length,
+                 "Streets: metres of facade sharing one pattern, 0 = one "
+                 "pattern everywhere")
+      ->capture_default_str();
+  app.add_option("--ground_density", family.ground_density,
+                 "Streets: unique ground points per facade point, 0 = none")
+      ->capture_default_str();
+  app.add_option("--unique_pattern", family.unique_pattern,
+                 "Families: every copy of the pattern unique (the control)")
+      ->capture_default_str();
+  app.add_option("--position_jitter", family.position_jitter,
+                 "Families: camera position noise (m; random 0-0.2)")
+      ->capture_default_str();
+  app.add_option("--rotation_jitter", family.rotation_jitter,
+                 "Families: camera yaw/pitch noise (degrees; random 0-4)")
+      ->capture_default_str();
+  app.add_option("--block_aspect", family.block_aspect,
+                 "block_loop: short side / long side (random 0.5-1)")
+      ->capture_default_str();
+  app.add_option("--view_angle", family.view_angle,
+                 "crossing_streets: angle between view and street, 90 = "
+                 "sideways (degrees; random 40-60)")
+      ->capture_default_str();
+  app.add_option("--symmetry_order", family.symmetry_order,
+                 "symmetric_object: n-fold print (random 2-4)")
+      ->capture_default_str();
+  app.add_option("--ring_radius", family.ring_radius,
+                 "symmetric_object: radius of the camera ring (m; random 3-6)")
+      ->capture_default_str();
+  app.add_option("--descriptor_noise", family.descriptor_noise,
+                 "Families: noise of the matcher's descriptor proxy (degrees)")
       ->capture_default_str();
   app.add_option("--min_num_inliers", options.min_num_inliers,
                  "Pairs with fewer inliers are not verified")

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hisfm/synth/scene_families.h"
 #include "hisfm/synth/synth_random.h"
 #include "hisfm/util/error.h"
 
@@ -269,6 +270,10 @@ std::vector<int> SymmetryGroup::Elements() const {
       elements.push_back(k);
       elements.push_back(-k);
     }
+  } else if (type == Type::kReplicaFrames) {
+    for (size_t k = 1; k < relations.size(); ++k) {
+      elements.push_back(static_cast<int>(k));
+    }
   }
   return elements;
 }
@@ -280,6 +285,8 @@ Rigid3d SymmetryGroup::Transform(int k) const {
         Eigen::AngleAxisd(2.0 * M_PI * k / order, Eigen::Vector3d::UnitZ()));
   } else if (type == Type::kTranslationX) {
     g.translation = Eigen::Vector3d(k * period, 0.0, 0.0);
+  } else if (type == Type::kReplicaFrames) {
+    g = relations.at(static_cast<size_t>(k));
   }
   return g;
 }
@@ -287,6 +294,10 @@ Rigid3d SymmetryGroup::Transform(int k) const {
 int SymmetryGroup::Relation(int replica_p, int replica_q) const {
   if (type == Type::kRotationZ) {
     return ((replica_q - replica_p) % order + order) % order;
+  }
+  if (type == Type::kReplicaFrames) {
+    return relation_table[static_cast<size_t>(replica_p) * replica_frames.size() +
+                          static_cast<size_t>(replica_q)];
   }
   return replica_q - replica_p;
 }
@@ -322,6 +333,34 @@ bool CylinderOccluder::Occludes(const Eigen::Vector3d& a,
   return std::max(s0, t0) < std::min(s1, t1);
 }
 
+bool BoxOccluder::Occludes(const Eigen::Vector3d& a,
+                           const Eigen::Vector3d& b) const {
+  // Slab test in the box's frame over the parameter interval s in (0, 1).
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  auto to_box = [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector2d d = x.head<2>() - center;
+    return Eigen::Vector3d(c * d.x() + s * d.y(), -s * d.x() + c * d.y(), x.z());
+  };
+  const Eigen::Vector3d a_box = to_box(a);
+  const Eigen::Vector3d dir = to_box(b) - a_box;
+  const Eigen::Vector3d lo(-half_size.x(), -half_size.y(), z_min);
+  const Eigen::Vector3d hi(half_size.x(), half_size.y(), z_max);
+  double s0 = 1e-6, s1 = 1.0 - 1e-6;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::abs(dir(axis)) < 1e-12) {
+      if (a_box(axis) <= lo(axis) || a_box(axis) >= hi(axis)) return false;
+      continue;
+    }
+    double t0 = (lo(axis) - a_box(axis)) / dir(axis);
+    double t1 = (hi(axis) - a_box(axis)) / dir(axis);
+    if (t0 > t1) std::swap(t0, t1);
+    s0 = std::max(s0, t0);
+    s1 = std::min(s1, t1);
+    if (s0 >= s1) return false;
+  }
+  return true;
+}
+
 Rigid3d LookAt(const Eigen::Vector3d& center, const Eigen::Vector3d& target,
                double roll_deg) {
   const Eigen::Vector3d forward = (target - center).normalized();
@@ -355,6 +394,12 @@ SceneLayout BuildSceneLayout(const SynthOptions& options) {
     case SynthSceneType::kStreet:
     case SynthSceneType::kStreetControl:
       BuildStreetScene(options, layout.type, &layout);
+      break;
+    case SynthSceneType::kFacadeStreet:
+    case SynthSceneType::kBlockLoop:
+    case SynthSceneType::kCrossingStreets:
+    case SynthSceneType::kSymmetricObject:
+      BuildFamilyLayout(options, layout.type, &layout);
       break;
   }
   return layout;

@@ -19,6 +19,8 @@
 //    SynthOptions::street_block_houses houses (default 12; each block has its
 //    own pattern; street_control: every house unique), a few unique facade details and a unique ground; cameras at
 //    y ~ 0 every 0.8 m along x, 1.6 m high, looking at the facades.
+//  - the families facade_street, block_loop, crossing_streets and
+//    symmetric_object: see hisfm/synth/scene_families.h.
 #pragma once
 
 #include <Eigen/Core>
@@ -37,11 +39,24 @@ struct SymmetryGroup {
     kNone,          ///< No repeated content.
     kRotationZ,     ///< Rotations by 2 pi k / order about the z axis.
     kTranslationX,  ///< Translations by k * period along x, |k| <= max_shift.
+    /// Each replica r is a rigid copy of a motif placed by
+    /// replica_frames[r] (world_from_motif); element k is the k-th distinct
+    /// transform world_from_motif(q) * world_from_motif(p)^-1 between two
+    /// replicas of the same motif (0 = identity).
+    kReplicaFrames,
   };
   Type type = Type::kNone;
   int order = 1;
   double period = 0.0;
   int max_shift = 0;
+  /// kReplicaFrames: the pose of every replica, its motif, the distinct
+  /// relations (relations[0] is the identity) and, for replicas p and q of
+  /// one motif, relation_table[p * replica_frames.size() + q] = the index
+  /// of their relation (-1 for replicas of different motifs).
+  std::vector<Rigid3d> replica_frames;
+  std::vector<int> replica_motifs;
+  std::vector<Rigid3d> relations;
+  std::vector<int32_t> relation_table;
 
   /// All elements, the identity (0) first.
   std::vector<int> Elements() const;
@@ -66,6 +81,8 @@ struct ScenePoint {
   int32_t replica = 0;
   /// True for points of the object or facades (false: background).
   bool on_object = false;
+  /// True for points of the clutter objects of the street families.
+  bool clutter = false;
 };
 
 /// A solid vertical cylinder that hides what lies behind it.
@@ -76,6 +93,21 @@ struct CylinderOccluder {
   double z_max = 1.0;
 
   /// True if the open segment from a to b passes through the cylinder.
+  bool Occludes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+};
+
+/// A solid box standing on the ground (a parked car, a kiosk), rotated by
+/// `yaw` about the vertical axis, that hides what lies behind it.
+struct BoxOccluder {
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();
+  /// Half extents along the box's own x and y axes.
+  Eigen::Vector2d half_size = Eigen::Vector2d::Ones();
+  /// Rotation of the box's x axis from the world's x axis (radians).
+  double yaw = 0.0;
+  double z_min = 0.0;
+  double z_max = 1.0;
+
+  /// True if the open segment from a to b passes through the box.
   bool Occludes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
 };
 
@@ -94,6 +126,22 @@ struct SceneLayout {
   double pair_radius = 1.0;
   /// Points farther than this from a camera are not seen.
   double max_view_distance = 1.0;
+  /// Family scenes (IsSynthFamily): every point, repeated or not, may be
+  /// hidden by the occluders (cylinders and boxes), keypoints carry
+  /// descriptor noise, candidate pairs are the pairs of images that see a
+  /// common appearance, and verification imitates COLMAP's choice between
+  /// an essential and a fundamental matrix (synthetic_matches.h).
+  bool family = false;
+  /// If positive, a point at distance d seen at angle a from its normal is
+  /// detected with probability detection_probability * min(1,
+  /// detection_reference_distance^2 * cos(a) / d^2): the image density of
+  /// keypoints is capped at the one of a surface seen head-on from this
+  /// distance, as a detector of fixed resolution misses texture that is too
+  /// fine (family streets: facade_distance).
+  double detection_reference_distance = 0.0;
+  /// Family scenes: the parameters used, drawn ones included.
+  SynthFamilyOptions family_options;
+  std::vector<BoxOccluder> boxes;
 };
 
 /// Builds the points and cameras of options.scene (deterministic in

@@ -6,8 +6,9 @@ namespace hisfm {
 
 const std::vector<std::string>& SynthSceneNames() {
   static const std::vector<std::string> names = {
-      "symmetric2", "symmetric4", "object_control", "street",
-      "street_control"};
+      "symmetric2",    "symmetric4", "object_control",   "street",
+      "street_control", "facade_street", "block_loop", "crossing_streets",
+      "symmetric_object"};
   return names;
 }
 
@@ -25,11 +26,32 @@ std::string SynthSceneTypeName(SynthSceneType type) {
   return SynthSceneNames().at(static_cast<size_t>(type));
 }
 
+bool IsSynthFamily(SynthSceneType type) {
+  return static_cast<int>(type) >= static_cast<int>(SynthSceneType::kFacadeStreet);
+}
+
 SynthTwoViewMode ParseSynthTwoViewMode(const std::string& name) {
   if (name == "direct") return SynthTwoViewMode::kDirect;
   if (name == "colmap") return SynthTwoViewMode::kColmap;
   throw Error(StrCat("unknown --two_view_geometry '", name,
                      "' (valid: direct, colmap)"));
+}
+
+void SynthFamilyOptions::Check() const {
+  HISFM_CHECK_OPTION(period >= 1 && period <= 20);
+  HISFM_CHECK_OPTION(camera_spacing >= 0.1 && camera_spacing <= 10);
+  HISFM_CHECK_OPTION(facade_distance >= 4 && facade_distance <= 40);
+  HISFM_CHECK_OPTION(relief_depth >= 0 && relief_depth <= 3);
+  HISFM_CHECK_OPTION(clutter_density >= 0 && clutter_density <= 5);
+  HISFM_CHECK_OPTION(block_length == 0 || block_length >= period);
+  HISFM_CHECK_OPTION(ground_density >= 0 && ground_density <= 5);
+  HISFM_CHECK_OPTION(position_jitter >= 0 && position_jitter <= 1);
+  HISFM_CHECK_OPTION(rotation_jitter >= 0 && rotation_jitter <= 15);
+  HISFM_CHECK_OPTION(block_aspect >= 0.2 && block_aspect <= 1);
+  HISFM_CHECK_OPTION(view_angle >= 20 && view_angle <= 90);
+  HISFM_CHECK_OPTION(symmetry_order >= 2 && symmetry_order <= 8);
+  HISFM_CHECK_OPTION(ring_radius >= 2 && ring_radius <= 10);
+  HISFM_CHECK_OPTION(descriptor_noise >= 0 && descriptor_noise <= 20);
 }
 
 void SynthOptions::Check() const {
@@ -55,6 +77,7 @@ void SynthOptions::Check() const {
   HISFM_CHECK_OPTION(max_error > 0);
   HISFM_CHECK_OPTION(min_inlier_ratio >= 0 && min_inlier_ratio <= 1);
   HISFM_CHECK_OPTION(!colmap_path.empty());
+  family.Check();
 }
 
 }  // namespace hisfm

@@ -24,6 +24,67 @@ namespace fs = std::filesystem;
 namespace hisfm {
 namespace {
 
+// Keypoints of clutter per keypoint of repeated content.
+double ObservedClutterRatio(const SyntheticScene& scene) {
+  size_t clutter = 0, repeated = 0;
+  for (const SynthImage& image : scene.images) {
+    for (const SynthFeature& feature : image.features) {
+      if (feature.point_index == kNoScenePoint) continue;
+      const ScenePoint& p = scene.layout.points[feature.point_index];
+      if (p.on_object) ++repeated;
+      if (p.clutter) ++clutter;
+    }
+  }
+  return repeated > 0 ? static_cast<double>(clutter) / repeated : 0.0;
+}
+
+nlohmann::json FamilyJson(const SynthFamilyOptions& family) {
+  nlohmann::json json;
+  json["period"] = family.period;
+  json["camera_spacing"] = family.camera_spacing;
+  json["facade_distance"] = family.facade_distance;
+  json["relief_depth"] = family.relief_depth;
+  json["clutter_density"] = family.clutter_density;
+  json["block_length"] = family.block_length;
+  json["ground_density"] = family.ground_density;
+  json["unique_pattern"] = family.unique_pattern;
+  json["position_jitter"] = family.position_jitter;
+  json["rotation_jitter"] = family.rotation_jitter;
+  json["block_aspect"] = family.block_aspect;
+  json["view_angle"] = family.view_angle;
+  json["symmetry_order"] = family.symmetry_order;
+  json["ring_radius"] = family.ring_radius;
+  json["descriptor_noise"] = family.descriptor_noise;
+  return json;
+}
+
+// pair_labels.txt (see the header).
+class PairLabelWriter {
+ public:
+  PairLabelWriter(const SyntheticScene& scene, const std::string& path)
+      : scene_(scene), path_(path), out_(path) {
+    ThrowUnless(out_.good(), StrCat("cannot write ", path));
+    out_ << "# Inliers of each verified pair by kind (hisfm synth).\n"
+         << "# NAME1 NAME2 INLIERS TRUE DOPPELGANGER RANDOM\n";
+  }
+  void Write(const ImagePair& pair, size_t num_true, size_t num_doppelganger,
+             size_t num_random) {
+    out_ << scene_.images[pair.image_id1 - 1].name << ' '
+         << scene_.images[pair.image_id2 - 1].name << ' '
+         << num_true + num_doppelganger + num_random << ' ' << num_true << ' '
+         << num_doppelganger << ' ' << num_random << '\n';
+  }
+  void Close() {
+    out_.close();
+    ThrowUnless(!out_.fail(), StrCat("cannot write ", path_));
+  }
+
+ private:
+  const SyntheticScene& scene_;
+  std::string path_;
+  std::ofstream out_;
+};
+
 void WriteSceneTables(const SyntheticScene& scene, DatabaseWriter* writer) {
   DatabaseCamera camera;
   camera.camera_id = scene.camera.camera_id;
@@ -73,25 +134,32 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
 
 }  // namespace
 
-bool IsDoppelgangerInlierSet(const SynthPairMatches& matches,
-                             const std::vector<FeatureMatch>& inliers) {
+InlierLabelCounts CountInlierLabels(const SynthPairMatches& matches,
+                                    const std::vector<FeatureMatch>& inliers) {
   std::unordered_map<uint64_t, int> label_of;
   label_of.reserve(matches.matches.size());
   for (size_t m = 0; m < matches.matches.size(); ++m) {
     const FeatureMatch& fm = matches.matches[m];
     label_of[(static_cast<uint64_t>(fm.idx1) << 32) | fm.idx2] = matches.labels[m];
   }
-  size_t num_true = 0, num_doppelganger = 0;
+  InlierLabelCounts counts;
   for (const FeatureMatch& fm : inliers) {
     auto it = label_of.find((static_cast<uint64_t>(fm.idx1) << 32) | fm.idx2);
-    if (it == label_of.end() || it->second == kOutlierMatchLabel) continue;
-    if (it->second == 0) {
-      ++num_true;
+    if (it == label_of.end() || it->second == kOutlierMatchLabel) {
+      ++counts.num_random;
+    } else if (it->second == 0) {
+      ++counts.num_true;
     } else {
-      ++num_doppelganger;
+      ++counts.num_doppelganger;
     }
   }
-  return num_doppelganger > num_true;
+  return counts;
+}
+
+bool IsDoppelgangerInlierSet(const SynthPairMatches& matches,
+                             const std::vector<FeatureMatch>& inliers) {
+  const InlierLabelCounts counts = CountInlierLabels(matches, inliers);
+  return counts.num_doppelganger > counts.num_true;
 }
 
 SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
@@ -123,8 +191,13 @@ SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
                  summary.num_images, summary.num_keypoints,
                  summary.num_points3D, summary.scene_seconds);
 
+  if (scene.layout.family) {
+    summary.observed_clutter_ratio = ObservedClutterRatio(scene);
+  }
+
   timer.Restart();
   const size_t min_inliers = static_cast<size_t>(options.min_num_inliers);
+  PairLabelWriter labels(scene, (fs::path(folder) / "pair_labels.txt").string());
   if (mode == SynthTwoViewMode::kDirect) {
     DatabaseWriter writer(database_path);
     WriteSceneTables(scene, &writer);
@@ -136,9 +209,13 @@ SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
       const SynthVerification& v = pair.verification;
       if (!v.verified || v.geometry.inlier_matches.size() < min_inliers) return;
       writer.WriteTwoViewGeometry(v.geometry);
+      labels.Write(v.geometry.pair, v.num_true_inliers,
+                   v.num_doppelganger_inliers, v.num_random_inliers);
       ++summary.num_verified_pairs;
       summary.num_inlier_matches += v.geometry.inlier_matches.size();
-      if (v.IsDoppelganger()) ++summary.num_doppelganger_pairs;
+      if (scene.layout.family ? v.MostlyDoppelganger() : v.IsDoppelganger()) {
+        ++summary.num_doppelganger_pairs;
+      }
     });
     writer.Close();
   } else {
@@ -178,11 +255,20 @@ SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
       const TwoViewGeometry g =
           database.ReadTwoViewGeometry(vp.pair.image_id1, vp.pair.image_id2);
       auto it = labelled.find(ImagePairToPairId(vp.pair.image_id1, vp.pair.image_id2));
-      if (it != labelled.end() && IsDoppelgangerInlierSet(it->second, g.inlier_matches)) {
+      InlierLabelCounts counts;
+      if (it != labelled.end()) {
+        counts = CountInlierLabels(it->second, g.inlier_matches);
+      } else {
+        counts.num_random = g.inlier_matches.size();
+      }
+      labels.Write(vp.pair, counts.num_true, counts.num_doppelganger,
+                   counts.num_random);
+      if (counts.num_doppelganger > counts.num_true) {
         ++summary.num_doppelganger_pairs;
       }
     }
   }
+  labels.Close();
   summary.pairs_seconds = timer.ElapsedSeconds();
   HISFM_LOG_INFO(
       "{} matched pairs, {} verified pairs ({} doppelganger), {} inlier "
@@ -211,6 +297,10 @@ SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
   json["num_doppelganger_pairs"] = summary.num_doppelganger_pairs;
   json["num_inlier_matches"] = summary.num_inlier_matches;
   json["seconds"] = summary.total_seconds;
+  if (scene.layout.family) {
+    json["family"] = FamilyJson(scene.layout.family_options);
+    json["observed_clutter_ratio"] = summary.observed_clutter_ratio;
+  }
   WriteFileAtomically((fs::path(folder) / "synth_summary.json").string(),
                       json.dump(2) + "\n");
   output.Commit();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <unordered_map>
 
 #include "hisfm/synth/synth_random.h"
@@ -16,6 +17,62 @@ namespace {
 // camera that still shows the point (80 degrees).
 constexpr double kMinFacingCosine = 0.17364817766693041;
 constexpr double kMinDepth = 0.1;
+// Family scenes: the occlusion test of a point stops this far (metres) short
+// of it, so that the surface the point lies on does not hide it.
+constexpr double kSurfaceOffset = 0.02;
+
+// Whether a solid's bounding sphere may meet the viewing cone (apex
+// `center`, unit `axis`, half angle `half_angle`) within `max_distance`.
+bool SphereMeetsCone(const Eigen::Vector3d& sphere_center, double radius,
+                     const Eigen::Vector3d& center, const Eigen::Vector3d& axis,
+                     double half_angle, double max_distance) {
+  const Eigen::Vector3d v = sphere_center - center;
+  const double dist = v.norm();
+  if (dist - radius > max_distance) return false;
+  if (dist <= radius) return true;
+  const double angle = std::acos(std::clamp(v.dot(axis) / dist, -1.0, 1.0));
+  return angle <= half_angle + std::asin(radius / dist);
+}
+
+// The occluders of a family scene that may hide points from one camera.
+struct NearbyOccluders {
+  std::vector<const CylinderOccluder*> cylinders;
+  std::vector<const BoxOccluder*> boxes;
+
+  NearbyOccluders(const SceneLayout& layout, const Eigen::Vector3d& center,
+                  const Eigen::Vector3d& axis, double half_angle) {
+    const double range = layout.max_view_distance;
+    for (const CylinderOccluder& c : layout.occluders) {
+      const double h = 0.5 * (c.z_max - c.z_min);
+      const Eigen::Vector3d mid(c.center.x(), c.center.y(), c.z_min + h);
+      if (SphereMeetsCone(mid, std::hypot(c.radius, h), center, axis,
+                          half_angle, range)) {
+        cylinders.push_back(&c);
+      }
+    }
+    for (const BoxOccluder& b : layout.boxes) {
+      const double h = 0.5 * (b.z_max - b.z_min);
+      const Eigen::Vector3d mid(b.center.x(), b.center.y(), b.z_min + h);
+      if (SphereMeetsCone(mid, std::hypot(b.half_size.norm(), h), center,
+                          axis, half_angle, range)) {
+        boxes.push_back(&b);
+      }
+    }
+  }
+
+  // True if a solid lies between the camera centre and the point `xyz`.
+  bool Hide(const Eigen::Vector3d& center, const Eigen::Vector3d& xyz) const {
+    const Eigen::Vector3d to_cam = center - xyz;
+    const Eigen::Vector3d end = xyz + (kSurfaceOffset / to_cam.norm()) * to_cam;
+    for (const CylinderOccluder* c : cylinders) {
+      if (c->Occludes(center, end)) return true;
+    }
+    for (const BoxOccluder* b : boxes) {
+      if (b->Occludes(center, end)) return true;
+    }
+    return false;
+  }
+};
 
 // COLMAP's camera model ids.
 int ModelIdOfName(const std::string& name) {
@@ -108,6 +165,13 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
   const double f = options.focal_length;
   const double half_angle =
       std::atan(0.5 * std::sqrt(w * w + h * h) / f);
+  const std::optional<NearbyOccluders> nearby =
+      layout.family ? std::optional<NearbyOccluders>(
+                          std::in_place, layout, center, axis, half_angle)
+                    : std::nullopt;
+  const double descriptor_noise =
+      layout.family ? layout.family_options.descriptor_noise * M_PI / 180.0
+                    : 0.0;
 
   grid.ForEachInCone(center, axis, half_angle, layout.max_view_distance,
                      [&](uint32_t pi) {
@@ -121,12 +185,20 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
     const double u = f * xc.x() / xc.z() + 0.5 * w;
     const double v = f * xc.y() / xc.z() + 0.5 * h;
     if (u < 1.0 || u > w - 1.0 || v < 1.0 || v > h - 1.0) return;
-    if (!p.on_object) {
+    if (nearby) {
+      if (nearby->Hide(center, p.xyz)) return;
+    } else if (!p.on_object) {
       for (const CylinderOccluder& occluder : layout.occluders) {
         if (occluder.Occludes(center, p.xyz)) return;
       }
     }
-    if (!rng.Bernoulli(options.detection_probability)) return;
+    double detection = options.detection_probability;
+    if (layout.detection_reference_distance > 0.0) {
+      const double ref = layout.detection_reference_distance;
+      detection *= std::min(
+          1.0, ref * ref * p.normal.dot(to_cam) / (dist * dist * dist));
+    }
+    if (!rng.Bernoulli(detection)) return;
     SynthFeature feature;
     feature.point_index = pi;
     const double nu = rng.Normal(options.keypoint_noise);
@@ -135,9 +207,14 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
                                  static_cast<float>(std::clamp(v + nv, 0.0, h)));
     const Eigen::Vector3d d = to_cam / dist;
     const Eigen::Vector3d bitangent = p.normal.cross(p.tangent);
-    feature.local_view = Eigen::Vector3f(static_cast<float>(d.dot(p.tangent)),
-                                         static_cast<float>(d.dot(bitangent)),
-                                         static_cast<float>(d.dot(p.normal)));
+    Eigen::Vector3d local(d.dot(p.tangent), d.dot(bitangent), d.dot(p.normal));
+    if (descriptor_noise > 0.0) {
+      local += Eigen::Vector3d(rng.Normal(descriptor_noise),
+                               rng.Normal(descriptor_noise),
+                               rng.Normal(descriptor_noise));
+      local.normalize();
+    }
+    feature.local_view = local.cast<float>();
     feature.distance = static_cast<float>(dist);
     image->features.push_back(feature);
   });

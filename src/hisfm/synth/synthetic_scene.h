@@ -8,7 +8,10 @@
 // SynthOptions::detection_probability, at its projection plus Gaussian noise.
 // Distractor keypoints (no 3D point) are added, and the keypoints of an image
 // are shuffled. Image i (0-based) has image id i + 1 and the name
-// SynthImageName(i) = "%06d.png".
+// SynthImageName(i) = "%06d.png". In family scenes (SceneLayout::family) the
+// occluders hide every kind of point (a point's own surface excepted), and
+// each keypoint's local viewing ray gets Gaussian noise of
+// SynthFamilyOptions::descriptor_noise per axis before it is renormalised.
 #pragma once
 
 #include <Eigen/Core>
