@@ -6,6 +6,7 @@
 #include <iostream>
 #include <map>
 #include <numeric>
+#include <set>
 #include <sstream>
 
 #include "hisfm/graph/view_graph.h"
@@ -65,6 +66,7 @@ int main(int argc, char** argv) {
   }
   MultiViewVerifierOptions verifier_options;
   verifier_options.geometry.keypoint_radius_px = radius;
+  verifier_options.edge_test.record_missing = !debug_pairs.empty();
   MultiViewVerifier verifier(database, graph, verifier_options);
   Reconstruction reference;
   if (!reference_path.empty()) reference = ReadModel(reference_path);
@@ -120,6 +122,30 @@ int main(int argc, char** argv) {
     std::cout << "; points " << m.points.size() << " checked " << m.num_checked
               << " found " << m.num_found << "\n";
   };
+  std::vector<ImageId> debug_egos;
+  for (size_t k = 0; k < debug_pairs.size(); ++k) {
+    if (k % 2 == 0) debug_egos.push_back(debug_pairs[k]);
+  }
+  for (const ImageId ego : debug_egos) {
+    const auto cands = StrongestNeighbours(verifier.RankingGraph(), ego, 4);
+    for (size_t x = 0; x < cands.size(); ++x) {
+      for (size_t y = x + 1; y < cands.size(); ++y) {
+        for (int ha = 0; ha < 2; ++ha) {
+          for (int hc = 0; hc < 2; ++hc) {
+            const LocalModel m = BuildTripletModel(verifier.cache(), ego, cands[x], cands[y], ha, hc, LocalModelOptions());
+            if (m.empty()) continue;
+            std::set<int> cells;
+            const auto& im = verifier.cache().Image(ego);
+            for (const uint32_t k : m.keypoints[0]) {
+              cells.insert(static_cast<int>(im.pixels[k].x() / 64) * 1000 + static_cast<int>(im.pixels[k].y() / 64));
+            }
+            std::cout << "  triplet " << ego << " " << cands[x] << "/" << ha << " " << cands[y] << "/" << hc
+                      << ": points " << m.points.size() << " cells " << cells.size() << " checked " << m.num_checked << " found " << m.num_found << "\n";
+          }
+        }
+      }
+    }
+  }
   for (size_t k = 0; k + 1 < debug_pairs.size(); k += 2) {
     const ImagePair p(debug_pairs[k], debug_pairs[k + 1]);
     const EdgeEvidence& ev = verifier.Evaluate(p);
@@ -128,6 +154,20 @@ int main(int argc, char** argv) {
               << "/" << ev.join_j << " agree " << ev.agreement_i << "/"
               << ev.agreement_j << " unique " << ev.num_unique << " visible "
               << ev.num_visible << " found " << ev.num_found << "\n";
+    if (!reference.images.empty()) {
+      for (const auto& mp : ev.missing) {
+        const Image& src = reference.images.at(mp.source);
+        const Point3DId pid = mp.keypoint < src.points2D.size() ? src.points2D[mp.keypoint].point3D_id : kInvalidPoint3DId;
+        std::cout << "    missing: source " << mp.source << " kp " << mp.keypoint << " -> image " << mp.target << " at " << mp.pixel.transpose();
+        if (pid == kInvalidPoint3DId) { std::cout << " (no true point)\n"; continue; }
+        const Image& tgt = reference.images.at(mp.target);
+        bool seen = false;
+        for (const Point2D& q : tgt.points2D) {
+          if (q.point3D_id == pid) { std::cout << " truth: observed at " << q.xy.transpose() << " dist " << (q.xy - mp.pixel).norm() << "\n"; seen = true; break; }
+        }
+        if (!seen) std::cout << " truth: not observed there\n";
+      }
+    }
     const auto geometry = verifier.cache().Pair(p.image_id1, p.image_id2);
     for (const auto& h : geometry->hypotheses) {
       double r = 0, d = 0;
@@ -162,8 +202,19 @@ int main(int argc, char** argv) {
     out.open(output_path);
     out << "id1\tid2\tlabel\tinliers\tjudged\tjoin_i\tjoin_j\tagree_i\t"
            "agree_j\tunique\tvisible\tfound\tmissing_fraction\tconsistent\t"
-           "score\tdisplaced\tmodels_checked\tmodels_found\n";
+           "score\tdisplaced\tmodels_checked\tmodels_found\trel_burst\t"
+           "rel_inliers\n";
   }
+  // An edge's weight relative to the strongest edge of each of its images
+  // (the smaller ratio).
+  const auto relative = [](const ViewGraph& g, const ImagePair& p) {
+    const auto best = [&](ImageId id) {
+      const auto e = StrongestEdges(g, g.IndexOf(id), 1);
+      return e.empty() ? 1.0 : static_cast<double>(g.Edges()[e[0]].weight);
+    };
+    const double w = g.Weight(p.image_id1, p.image_id2);
+    return std::min(w / best(p.image_id1), w / best(p.image_id2));
+  };
   std::vector<double> pos, neg;
   int silent[2] = {0, 0};
   Timer timer;
@@ -171,7 +222,7 @@ int main(int argc, char** argv) {
     auto it = labels.find(e.pair);
     if (it == labels.end() || (it->second != 0 && it->second != 1)) continue;
     const EdgeEvidence& ev = verifier.Evaluate(e.pair);
-    const double score = MultiViewVerifier::ScoreOf(ev);
+    const double score = verifier.ScoreOf(e.pair);
     if (!ev.judged) ++silent[it->second];
     (it->second ? pos : neg).push_back(score);
     if (out) {
@@ -182,7 +233,9 @@ int main(int argc, char** argv) {
           << ev.num_visible << '\t' << ev.num_found << '\t'
           << ev.MissingFraction() << '\t' << ev.num_consistent << '\t'
           << score << '\t' << ev.num_found_displaced << '\t'
-          << ev.models_checked << '\t' << ev.models_found << '\n';
+          << ev.models_checked << '\t' << ev.models_found << '\t'
+          << relative(verifier.RankingGraph(), e.pair) << '\t'
+          << relative(graph, e.pair) << '\n';
     }
   }
   std::cout << "pairs: " << pos.size() << " true, " << neg.size()

@@ -57,6 +57,22 @@ void AddHierarchicalMapperFlags(CLI::App& app,
   app.add_option("--HiSfM.verifier", o->verifier.verifier,
                  "Bridge verifier: builtin, none, scores:FILE, command:CMD")
       ->capture_default_str();
+  app.add_option("--HiSfM.trusted_threshold",
+                 o->verifier.verified_hierarchy.trusted_threshold,
+                 "builtin verifier: a trusted edge (community, intra-community "
+                 "or leaf edge) scoring below this is removed and the "
+                 "hierarchy rebuilt")
+      ->capture_default_str();
+  app.add_option("--HiSfM.clean_inliers",
+                 o->verifier.verified_hierarchy.clean_inliers,
+                 "builtin verifier: reconstruct each edge from the inliers "
+                 "that agree with the geometry its test accepted")
+      ->capture_default_str();
+  app.add_option("--HiSfM.burstiness_weights",
+                 o->verifier.burstiness_weights,
+                 "builtin verifier: rank pairs by burstiness-weighted support "
+                 "instead of inlier count")
+      ->capture_default_str();
   app.add_option("--HiSfM.min_relative_coverage",
                  o->verifier.builtin.min_relative_coverage,
                  "builtin verifier: a bridge's inlier coverage relative to "

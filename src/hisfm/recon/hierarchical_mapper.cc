@@ -140,9 +140,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
     VerifiedHierarchy verified = BuildVerifiedHierarchy(
         options.verifier.burstiness_weights ? verifier.RankingGraph()
                                             : in.graph,
-        verifier, options.hierarchy,
-        options.hierarchy.skeleton.verify_threshold,
-        options.verifier.verified_hierarchy);
+        verifier, options.hierarchy, options.verifier.verified_hierarchy);
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
     in.multiview = {{"rounds", verified.rounds},

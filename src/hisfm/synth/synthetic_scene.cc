@@ -13,6 +13,10 @@
 namespace hisfm {
 namespace {
 
+// Family scenes: per-view variation of a point's detectability (see
+// GenerateImage).
+constexpr double kDetectionJitter = 0.2;
+
 // Cosine of the largest angle between a point's normal and the ray to a
 // camera that still shows the point (80 degrees).
 constexpr double kMinFacingCosine = 0.17364817766693041;
@@ -198,7 +202,19 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
       detection *= std::min(
           1.0, ref * ref * p.normal.dot(to_cam) / (dist * dist * dist));
     }
-    if (!rng.Bernoulli(detection)) return;
+    if (layout.family) {
+      // A point's detectability persists from view to view (its texture
+      // and contrast), with a little per-view variation: a detector that
+      // finds a corner in one photo finds it in the next, unless the view
+      // makes it too small or too oblique.
+      const double strength =
+          SynthRandom(DeriveSeed(options.seed, 11, pi)).Uniform();
+      if (strength + kDetectionJitter * (rng.Uniform() - 0.5) >= detection) {
+        return;
+      }
+    } else if (!rng.Bernoulli(detection)) {
+      return;
+    }
     SynthFeature feature;
     feature.point_index = pi;
     const double nu = rng.Normal(options.keypoint_noise);

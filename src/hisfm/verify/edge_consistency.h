@@ -13,7 +13,8 @@
 // model i's frame. A point of one model is unique if none of its keypoints
 // is matched to an image of the other model; unique points predicted
 // visible in the other model's images (local_model.h PredictVisible) should
-// land on a keypoint there. A true pair predicts what the other side sees;
+// land on a keypoint there, unless the other model's own points show
+// nearer structure at that place (occlusion). A true pair predicts what the other side sees;
 // a doppelganger, which joins two places through their repeated structure,
 // predicts one place's unique content (clutter, background, the print's
 // surroundings) into the other's images, where nothing is found (missing
@@ -36,9 +37,21 @@ struct EdgeTestOptions {
   double depth_tolerance = 0.1;
   /// Each model must be joined by at least this many agreeing inliers.
   int min_join_points = 5;
-  /// Depth ratio allowed between a point's observing view and a view that
-  /// should see it (see LocalModelOptions::max_scale_change).
-  double max_scale_change = 2.0;
+  /// The test speaks (ranks a hypothesis by its contradictions) with at
+  /// least this many unique points.
+  int min_unique_points = 5;
+  /// When a unique point is predicted visible in the other model's images.
+  VisibilityOptions visibility;
+  /// Occlusion: a unique point predicted behind the other model's own
+  /// structure is hidden, not missing. The other model's points are binned
+  /// per image on cells of this side (pixels); a prediction is hidden if a
+  /// point within one cell of it is nearer the camera by more than
+  /// occlusion_margin (relative).
+  double occlusion_cell_px = 32;
+  double occlusion_margin = 0.1;
+  /// Record which unique points were missing (EdgeEvidence::missing), for
+  /// studies of the test.
+  bool record_missing = false;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -74,6 +87,16 @@ struct EdgeEvidence {
   /// order): consistent with the joined geometry.
   std::vector<char> consistent;
   int num_consistent = 0;
+  /// With EdgeTestOptions::record_missing: each missing unique point as
+  /// (its model's ego image, keypoint there, the image it was predicted
+  /// in, the predicted pixel).
+  struct MissingPoint {
+    ImageId source = kInvalidImageId;
+    uint32_t keypoint = 0;
+    ImageId target = kInvalidImageId;
+    Eigen::Vector2d pixel = Eigen::Vector2d::Zero();
+  };
+  std::vector<MissingPoint> missing;
 
   /// Unique points predicted visible but not found.
   int num_missing() const { return num_visible - num_found; }

@@ -43,6 +43,9 @@ const ImageGeometry& GeometryCache::Image(ImageId image_id) {
     g->pixels[r] = Eigen::Vector2d(keypoints(r, 0), keypoints(r, 1));
     g->normalized[r] = g->camera.PixelToNormalized(g->pixels[r]);
   }
+  auto degree = degrees_.find(image_id);
+  if (degree != degrees_.end()) g->degree = degree->second;
+  g->degree.resize(g->pixels.size(), 0);
   g->grid = KeypointGrid(g->pixels, static_cast<double>(g->camera.width()),
                          static_cast<double>(g->camera.height()),
                          options_.keypoint_radius_px);

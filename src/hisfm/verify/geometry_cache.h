@@ -36,6 +36,9 @@ struct ImageGeometry {
   std::vector<Eigen::Vector2d> pixels;
   std::vector<Eigen::Vector2d> normalized;
   KeypointGrid grid;
+  /// Per keypoint, the number of verified pairs it is an inlier of (empty
+  /// unless the cache was given degrees).
+  std::vector<uint16_t> degree;
 };
 
 /// A pair's inliers and poses, oriented from `from` to `to` (as asked).
@@ -62,6 +65,12 @@ class GeometryCache {
   GeometryCache(const Database& database, const ViewGraph& graph,
                 const GeometryCacheOptions& options = {});
 
+  /// Keypoint degrees (match_burstiness.h) to attach to the images; call
+  /// before the first Image().
+  void SetKeypointDegrees(
+      std::unordered_map<ImageId, std::vector<uint16_t>> degrees) {
+    degrees_ = std::move(degrees);
+  }
   /// The image's geometry (throws hisfm::Error for an unknown image).
   const ImageGeometry& Image(ImageId image_id);
   /// True if the pair is an edge of the graph.
@@ -81,6 +90,7 @@ class GeometryCache {
   std::unordered_map<CameraId, DatabaseCamera> cameras_;
   std::unordered_map<ImageId, CameraId> camera_of_image_;
   std::unordered_map<ImageId, std::unique_ptr<ImageGeometry>> images_;
+  std::unordered_map<ImageId, std::vector<uint16_t>> degrees_;
   std::unordered_map<ImagePair, std::shared_ptr<const PairGeometry>,
                      ImagePairHash>
       stored_;

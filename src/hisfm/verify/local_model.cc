@@ -33,7 +33,9 @@ void CheckTwoViewPoints(GeometryCache& cache, const LocalModelOptions& options,
   const std::shared_ptr<const PairGeometry> vw =
       cache.Pair(model->images[v], model->images[w]);
   std::vector<bool> in_model(iv.normalized.size(), false);
-  for (const uint32_t k : model->keypoints[v]) in_model[k] = true;
+  for (const uint32_t k : model->keypoints[v]) {
+    if (k != LocalModel::kNoKeypoint) in_model[k] = true;
+  }
   const Rigid3d poses[2] = {model->cam_from_model[v], model->cam_from_model[w]};
   for (const FeatureMatch& m : vw->matches) {
     if (in_model[m.idx1]) continue;
@@ -51,8 +53,8 @@ void CheckTwoViewPoints(GeometryCache& cache, const LocalModelOptions& options,
     const Eigen::Vector3d cw = poses[1].Inverse().translation;
     if (TriangulationAngle(cv, cw, X) < min_angle) continue;
     Eigen::Vector2d pixel;
-    if (!PredictVisible(iu, model->cam_from_model[u], X, Yv.z(),
-                        options.max_scale_change, &pixel)) {
+    if (!PredictVisible(iu, model->cam_from_model[u], X, cv,
+                        options.visibility, &pixel)) {
       continue;
     }
     ++model->num_checked;
@@ -79,6 +81,77 @@ struct ReprojectionResidual {
   Eigen::Vector2d x_;
   double focal_;
 };
+
+// Cells of the ego image that hold a keypoint of one of the model's points.
+int CoverageCells(GeometryCache& cache, const LocalModelOptions& options,
+                  const LocalModel& model) {
+  const ImageGeometry& ego = cache.Image(model.images[0]);
+  std::vector<int64_t> cells;
+  cells.reserve(model.points.size());
+  for (const uint32_t k : model.keypoints[0]) {
+    const Eigen::Vector2d& u = ego.pixels[k];
+    cells.push_back(
+        static_cast<int64_t>(std::floor(u.x() / options.coverage_cell_px)) *
+            1000003 +
+        static_cast<int64_t>(std::floor(u.y() / options.coverage_cell_px)));
+  }
+  std::sort(cells.begin(), cells.end());
+  return static_cast<int>(std::unique(cells.begin(), cells.end()) -
+                          cells.begin());
+}
+
+// Adds the distinctive two-view points of the ego image with view v (see
+// LocalModelOptions::distinctive_two_view_points).
+void AddDistinctiveTwoViewPoints(GeometryCache& cache,
+                                 const LocalModelOptions& options, int v,
+                                 LocalModel* model) {
+  const ImageGeometry& ie = cache.Image(model->images[0]);
+  const ImageGeometry& iv = cache.Image(model->images[v]);
+  if (ie.degree.empty() || iv.degree.empty()) return;
+  // The median degree of the ego image's matched keypoints.
+  std::vector<uint16_t> matched;
+  for (const uint16_t d : ie.degree) {
+    if (d > 0) matched.push_back(d);
+  }
+  if (matched.empty()) return;
+  std::nth_element(matched.begin(), matched.begin() + matched.size() / 2,
+                   matched.end());
+  const double max_degree = std::max(
+      2.0, options.distinctive_degree_fraction * matched[matched.size() / 2]);
+  std::vector<bool> in_model(ie.normalized.size(), false);
+  for (const uint32_t k : model->keypoints[0]) in_model[k] = true;
+  const std::shared_ptr<const PairGeometry> ev =
+      cache.Pair(model->images[0], model->images[v]);
+  const Rigid3d poses[2] = {model->cam_from_model[0],
+                            model->cam_from_model[v]};
+  const Eigen::Vector3d c0 = poses[0].Inverse().translation;
+  const Eigen::Vector3d cv = poses[1].Inverse().translation;
+  const double min_angle = options.min_triangulation_angle_deg * M_PI / 180.0;
+  for (const FeatureMatch& m : ev->matches) {
+    if (in_model[m.idx1] || ie.degree[m.idx1] > max_degree ||
+        iv.degree[m.idx2] > max_degree) {
+      continue;
+    }
+    const Eigen::Vector2d x[2] = {ie.normalized[m.idx1],
+                                  iv.normalized[m.idx2]};
+    const Eigen::Vector3d X = TriangulateMultiView(poses, x, 2);
+    if (!X.allFinite() ||
+        ReprojectionError(ie, poses[0] * X, m.idx1) >
+            options.max_reprojection_px ||
+        ReprojectionError(iv, poses[1] * X, m.idx2) >
+            options.max_reprojection_px ||
+        TriangulationAngle(c0, cv, X) < min_angle) {
+      continue;
+    }
+    in_model[m.idx1] = true;
+    model->points.push_back(X);
+    for (size_t w = 0; w < model->images.size(); ++w) {
+      model->keypoints[w].push_back(
+          w == 0 ? m.idx1
+                 : (static_cast<int>(w) == v ? m.idx2 : LocalModel::kNoKeypoint));
+    }
+  }
+}
 
 }  // namespace
 
@@ -165,11 +238,18 @@ void CheckModelConsistency(GeometryCache& cache,
   CheckTwoViewPoints(cache, options, 0, 2, 1, model);
 }
 
+void VisibilityOptions::Check() const {
+  HISFM_CHECK_OPTION(max_scale_change >= 1);
+  HISFM_CHECK_OPTION(max_view_angle_deg > 0 && max_view_angle_deg <= 180);
+}
+
 void LocalModelOptions::Check() const {
   HISFM_CHECK_OPTION(num_candidates >= 2);
   HISFM_CHECK_OPTION(max_reprojection_px > 0);
   HISFM_CHECK_OPTION(min_points >= 3);
-  HISFM_CHECK_OPTION(max_scale_change >= 1);
+  visibility.Check();
+  HISFM_CHECK_OPTION(coverage_cell_px > 0);
+  HISFM_CHECK_OPTION(distinctive_degree_fraction > 0);
   HISFM_CHECK_OPTION(min_triangulation_angle_deg >= 0 &&
                      min_triangulation_angle_deg < 90);
 }
@@ -187,12 +267,27 @@ int LocalModel::IndexOf(ImageId image_id) const {
 
 bool PredictVisible(const ImageGeometry& target,
                     const Rigid3d& target_from_frame,
-                    const Eigen::Vector3d& point, double observed_depth,
-                    double max_scale_change, Eigen::Vector2d* pixel) {
+                    const Eigen::Vector3d& point,
+                    const Eigen::Vector3d& observer_center,
+                    const VisibilityOptions& visibility,
+                    Eigen::Vector2d* pixel) {
   const Eigen::Vector3d Y = target_from_frame * point;
-  if (!(Y.z() > 0) || !(observed_depth > 0)) return false;
-  const double ratio = Y.z() / observed_depth;
-  if (ratio > max_scale_change || ratio * max_scale_change < 1) return false;
+  if (!(Y.z() > 0)) return false;
+  const Eigen::Vector3d target_center = target_from_frame.Inverse().translation;
+  const Eigen::Vector3d to_target = target_center - point;
+  const Eigen::Vector3d to_observer = observer_center - point;
+  const double dt = to_target.norm();
+  const double dobs = to_observer.norm();
+  if (!(dt > 0) || !(dobs > 0)) return false;
+  const double ratio = dt / dobs;
+  if (ratio > visibility.max_scale_change ||
+      ratio * visibility.max_scale_change < 1) {
+    return false;
+  }
+  if (to_target.dot(to_observer) <
+      std::cos(visibility.max_view_angle_deg * M_PI / 180.0) * dt * dobs) {
+    return false;
+  }
   *pixel = target.camera.NormalizedToPixel(Y.hnormalized());
   return pixel->allFinite() && target.camera.InImage(*pixel);
 }
@@ -262,6 +357,7 @@ LocalModel BuildTripletModel(GeometryCache& cache, ImageId ego, ImageId a,
     return LocalModel();
   }
   CheckModelConsistency(cache, options, &model);
+  model.num_cells = CoverageCells(cache, options, model);
   return model;
 }
 
@@ -282,7 +378,11 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                                 static_cast<int>(ha), static_cast<int>(hc),
                                 options);
           if (model.empty()) continue;
-          if (model.points.size() > best.points.size()) best = std::move(model);
+          if (model.num_cells > best.num_cells ||
+              (model.num_cells == best.num_cells &&
+               model.points.size() > best.points.size())) {
+            best = std::move(model);
+          }
         }
       }
     }
@@ -293,6 +393,12 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
       return LocalModel();
     }
     CheckModelConsistency(cache, options, &best);
+    best.num_cells = CoverageCells(cache, options, best);
+  }
+  if (options.distinctive_two_view_points && !best.empty()) {
+    for (int v = 1; v < static_cast<int>(best.images.size()); ++v) {
+      AddDistinctiveTwoViewPoints(cache, options, v, &best);
+    }
   }
   return best;
 }

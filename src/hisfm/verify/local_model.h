@@ -21,6 +21,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <vector>
 
 #include "hisfm/graph/view_graph.h"
@@ -28,6 +29,21 @@
 #include "hisfm/verify/geometry_cache.h"
 
 namespace hisfm {
+
+/// When a point seen from one camera should be detected again from another:
+/// a feature detector and descriptor tolerate a limited change of scale and
+/// of viewing direction (SIFT: a factor of about 2, some 40 degrees; Lowe,
+/// IJCV 2004, Sec. 9). Beyond that a point is not expected to be found, and
+/// its absence says nothing.
+struct VisibilityOptions {
+  /// Largest ratio of the point's distances to the two cameras.
+  double max_scale_change = 2.0;
+  /// Largest angle (degrees) between the two viewing rays at the point.
+  double max_view_angle_deg = 40.0;
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
 
 struct LocalModelOptions {
   /// The ego image's strongest pairs whose other images are tried as the
@@ -39,16 +55,25 @@ struct LocalModelOptions {
   /// Shared keypoints needed to fix the scale between the two pairs, and
   /// points needed to form a model.
   int min_points = 5;
-  /// A point is predicted visible in a view only if its depth there is
-  /// within this factor of its depth in the view that observed it (a
-  /// feature detector's scale tolerance).
-  double max_scale_change = 2.0;
+  /// When a point is predicted visible in a view.
+  VisibilityOptions visibility;
   /// Two-view points seen under a smaller triangulation angle (degrees) are
   /// too uncertain in depth to be predicted into the third view.
   double min_triangulation_angle_deg = 2.0;
+  /// Side (pixels) of the square cells on which a model's coverage of the
+  /// ego image is counted.
+  double coverage_cell_px = 64;
   /// Refine the chosen triplet by bundle adjustment (Ceres) before its
   /// points are used for predictions.
   bool bundle_adjust = true;
+  /// Also keep the two-view points (ego and one other view) whose keypoints
+  /// are distinctive: inliers of at most distinctive_degree_fraction of the
+  /// median number of pairs the ego image's matched keypoints are inliers
+  /// of (at least 2). Unique content near the cameras (clutter, the ground)
+  /// is often seen in two views only; repeated structure, and the phantom
+  /// points its wrong matches triangulate, is matched by many pairs.
+  bool distinctive_two_view_points = true;
+  double distinctive_degree_fraction = 0.5;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -62,12 +87,17 @@ struct LocalModel {
   /// Pose of each image; images[0] at the identity.
   std::vector<Rigid3d> cam_from_model;
   std::vector<Eigen::Vector3d> points;
-  /// keypoints[v][p]: the keypoint of images[v] that observes point p.
+  /// keypoints[v][p]: the keypoint of images[v] that observes point p, or
+  /// kNoKeypoint (only for v > 0: the ego image observes every point).
   std::vector<std::vector<uint32_t>> keypoints;
+  static constexpr uint32_t kNoKeypoint = UINT32_MAX;
   /// Two-view points predicted visible in the third view, and those that
   /// landed on a keypoint.
   int num_checked = 0;
   int num_found = 0;
+  /// Cells of the ego image (LocalModelOptions::coverage_cell_px) holding a
+  /// keypoint of a point.
+  int num_cells = 0;
 
   bool empty() const { return points.empty(); }
   /// num_found / num_checked (1 when nothing was checked).
@@ -77,13 +107,16 @@ struct LocalModel {
 };
 
 /// Projects `point` (in the frame that `target_from_frame` maps from) into
-/// `target` and tells whether it should be visible there: in front, inside
-/// the image, and at a depth within max_scale_change of `observed_depth`.
-/// Writes the pixel when visible.
+/// `target` and tells whether it should be detected there: in front,
+/// inside the image, and within `visibility`'s limits of scale and viewing
+/// direction relative to the camera at `observer_center` (same frame) that
+/// saw it. Writes the pixel when visible.
 bool PredictVisible(const ImageGeometry& target,
                     const Rigid3d& target_from_frame,
-                    const Eigen::Vector3d& point, double observed_depth,
-                    double max_scale_change, Eigen::Vector2d* pixel);
+                    const Eigen::Vector3d& point,
+                    const Eigen::Vector3d& observer_center,
+                    const VisibilityOptions& visibility,
+                    Eigen::Vector2d* pixel);
 
 /// The triplet model of `ego` with `a` and `c`, using pose hypothesis
 /// `hypothesis_a` of (ego, a) and `hypothesis_c` of (ego, c) (indices into
@@ -110,10 +143,13 @@ void CheckModelConsistency(GeometryCache& cache,
 /// The ego model of `ego`: among the triplets of ego with two of its
 /// num_candidates strongest neighbours in `graph` (other than `exclude`,
 /// which may be kInvalidImageId) and every combination of their pose
-/// hypotheses, the one with the most points (a triplet of true neighbours
-/// shares the scene's unique content as well as its repeated structure; a
-/// triplet joined through a doppelganger shares only the latter), refined
-/// by bundle adjustment. Empty if no triplet forms.
+/// hypotheses, the one whose points cover the most cells of the ego image
+/// (then: the most points), refined by bundle adjustment. A triplet of true
+/// neighbours shares the scene's unique content, spread over the image, as
+/// well as its repeated structure; a triplet joined through a doppelganger
+/// shares only the latter, often the same number of points on a smaller part
+/// of the image (the print of a symmetric object). Empty if no triplet
+/// forms.
 LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                          ImageId ego, ImageId exclude,
                          const LocalModelOptions& options);

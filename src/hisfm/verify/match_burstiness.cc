@@ -5,16 +5,15 @@
 
 namespace hisfm {
 
-std::unordered_map<ImagePair, double, ImagePairHash> BurstinessWeights(
-    const Database& database, const ViewGraph& graph) {
+KeypointDegrees ComputeKeypointDegrees(const Database& database,
+                                       const ViewGraph& graph) {
   std::unordered_map<ImageId, size_t> num_keypoints =
       database.ReadNumKeypoints();
-  std::unordered_map<ImageId, std::vector<uint16_t>> degree;
+  KeypointDegrees degree;
   for (const ImageId id : graph.Images()) {
     degree[id].assign(num_keypoints[id], 0);
   }
   const std::vector<ImagePair> pairs = graph.Pairs();
-  // First read: how many pairs each keypoint is an inlier of.
   const auto bump = [](std::vector<uint16_t>& d, Point2DIdx k) {
     if (k < d.size() && d[k] < UINT16_MAX) ++d[k];
   };
@@ -27,13 +26,24 @@ std::unordered_map<ImagePair, double, ImagePairHash> BurstinessWeights(
           bump(d2, m.idx2);
         }
       });
-  // Second read: the weights.
+  return degree;
+}
+
+std::unordered_map<ImagePair, double, ImagePairHash> BurstinessWeights(
+    const Database& database, const ViewGraph& graph,
+    const KeypointDegrees& degree) {
+  const std::vector<ImagePair> pairs = graph.Pairs();
+  const std::vector<uint16_t> none;
+  const auto of = [&](ImageId id) -> const std::vector<uint16_t>& {
+    auto it = degree.find(id);
+    return it == degree.end() ? none : it->second;
+  };
   std::unordered_map<ImagePair, double, ImagePairHash> weights;
   weights.reserve(pairs.size());
   database.ForEachInlierMatches(
       pairs, [&](const ImagePair& pair, FeatureMatchSpan matches) {
-        const std::vector<uint16_t>& d1 = degree[pair.image_id1];
-        const std::vector<uint16_t>& d2 = degree[pair.image_id2];
+        const std::vector<uint16_t>& d1 = of(pair.image_id1);
+        const std::vector<uint16_t>& d2 = of(pair.image_id2);
         double w = 0;
         for (const FeatureMatch& m : matches) {
           if (m.idx1 >= d1.size() || m.idx2 >= d2.size()) continue;

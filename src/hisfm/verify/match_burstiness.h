@@ -21,11 +21,18 @@
 
 namespace hisfm {
 
+/// Per image, per keypoint: the number of pairs of `graph` in which the
+/// keypoint is an inlier (saturating at 65535; one read of every pair's
+/// inliers).
+using KeypointDegrees = std::unordered_map<ImageId, std::vector<uint16_t>>;
+KeypointDegrees ComputeKeypointDegrees(const Database& database,
+                                       const ViewGraph& graph);
+
 /// Per pair, the sum over its inliers of 1 / sqrt(n1 n2), n1 and n2 the
-/// numbers of pairs of `graph` in which each of its keypoints is an inlier
-/// (one read of every pair's inliers).
+/// degrees of its two keypoints (one more read of every pair's inliers).
 std::unordered_map<ImagePair, double, ImagePairHash> BurstinessWeights(
-    const Database& database, const ViewGraph& graph);
+    const Database& database, const ViewGraph& graph,
+    const KeypointDegrees& degrees);
 
 /// The graph with each edge's weight replaced by round(scale * burstiness
 /// weight), at least 1 (the same images and edges).

@@ -20,9 +20,12 @@ MultiViewVerifier::MultiViewVerifier(const Database& database,
       options_(options),
       cache_(database, graph, options.geometry) {
   options_.Check();
+  KeypointDegrees degrees = ComputeKeypointDegrees(database, graph);
   ranking_ = options_.rank_by_burstiness
-                 ? ReweightedGraph(graph, BurstinessWeights(database, graph))
+                 ? ReweightedGraph(graph,
+                                   BurstinessWeights(database, graph, degrees))
                  : graph;
+  cache_.SetKeypointDegrees(std::move(degrees));
 }
 
 const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId exclude) {
@@ -56,16 +59,40 @@ const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {
       .first->second;
 }
 
-double MultiViewVerifier::ScoreOf(const EdgeEvidence& evidence) {
-  if (!evidence.judged) return 0.5;
-  return std::clamp(1.0 - evidence.MissingFraction(), 0.0, 1.0);
+namespace {
+
+// An edge's weight relative to the strongest edge of each of its images (the
+// smaller of the two ratios).
+double RelativeWeight(const ViewGraph& graph, const ImagePair& pair) {
+  const double w = graph.Weight(pair.image_id1, pair.image_id2);
+  double ratio = 1;
+  for (const ImageId id : {pair.image_id1, pair.image_id2}) {
+    const std::vector<size_t> best = StrongestEdges(graph, graph.IndexOf(id), 1);
+    if (!best.empty() && graph.Edges()[best[0]].weight > 0) {
+      ratio = std::min(ratio, w / graph.Edges()[best[0]].weight);
+    }
+  }
+  return ratio;
+}
+
+}  // namespace
+
+PairFeatures MultiViewVerifier::Features(const ImagePair& pair) {
+  PairFeatures f = PairFeatures::FromEvidence(Evaluate(pair));
+  f.relative_burstiness = RelativeWeight(ranking_, pair);
+  f.relative_inliers = RelativeWeight(graph_, pair);
+  return f;
+}
+
+double MultiViewVerifier::ScoreOf(const ImagePair& pair) {
+  return CalibratedPairScore(Features(pair));
 }
 
 std::vector<double> MultiViewVerifier::Score(
     const std::vector<ImagePair>& pairs) {
   std::vector<double> scores;
   scores.reserve(pairs.size());
-  for (const ImagePair& p : pairs) scores.push_back(ScoreOf(Evaluate(p)));
+  for (const ImagePair& p : pairs) scores.push_back(ScoreOf(p));
   return scores;
 }
 

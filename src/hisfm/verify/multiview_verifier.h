@@ -24,6 +24,7 @@
 #include "hisfm/verify/edge_consistency.h"
 #include "hisfm/verify/geometry_cache.h"
 #include "hisfm/verify/local_model.h"
+#include "hisfm/verify/pair_score.h"
 
 namespace hisfm {
 
@@ -55,8 +56,10 @@ class MultiViewVerifier : public BridgeScorer {
 
   /// The evidence on a pair (computed once; `pair` must be an edge).
   const EdgeEvidence& Evaluate(const ImagePair& pair);
-  /// The calibrated score of evidence, in [0, 1].
-  static double ScoreOf(const EdgeEvidence& evidence);
+  /// The features of a pair (its evidence and relative supports).
+  PairFeatures Features(const ImagePair& pair);
+  /// The calibrated score of a pair (pair_score.h), in (0, 1).
+  double ScoreOf(const ImagePair& pair);
   /// The ego model of `ego` built without `exclude` (computed once).
   const LocalModel& EgoModel(ImageId ego, ImageId exclude);
   /// The pair's inlier matches (oriented as stored: the smaller image id's

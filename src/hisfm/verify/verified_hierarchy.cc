@@ -10,6 +10,7 @@ namespace hisfm {
 
 void VerifiedHierarchyOptions::Check() const {
   HISFM_CHECK_OPTION(max_rounds >= 1);
+  HISFM_CHECK_OPTION(trusted_threshold >= 0 && trusted_threshold <= 1);
 }
 
 std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
@@ -26,7 +27,7 @@ std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
 
 VerifiedHierarchy BuildVerifiedHierarchy(
     const ViewGraph& graph, MultiViewVerifier& verifier,
-    const HierarchyOptions& hierarchy_options, double threshold,
+    const HierarchyOptions& hierarchy_options,
     const VerifiedHierarchyOptions& options) {
   options.Check();
   VerifiedHierarchy out;
@@ -38,7 +39,7 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     std::vector<RejectedTrustedEdge> failing;
     for (const ImagePair& pair : TrustedEdges(out.hierarchy)) {
       const double score = verifier.Score({pair}).front();
-      if (score < threshold) {
+      if (score < options.trusted_threshold) {
         failing.push_back({pair, out.graph.Weight(pair.image_id1,
                                                   pair.image_id2),
                            score, round});

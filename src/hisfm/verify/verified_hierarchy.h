@@ -31,6 +31,12 @@ struct VerifiedHierarchyOptions {
   /// Replace each used edge's inliers by those consistent with the geometry
   /// its test accepted.
   bool clean_inliers = true;
+  /// A trusted edge is rejected when its score falls below this. Trusted
+  /// edges are each image's strongest pairs, true far more often than the
+  /// bridges Kruskal meets, so rejecting one needs stronger evidence than
+  /// accepting a bridge (the bridges' threshold is
+  /// SkeletonOptions::verify_threshold).
+  double trusted_threshold = 0.5;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -69,11 +75,12 @@ struct VerifiedHierarchy {
 /// the leaf edges (sorted, unique).
 std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy);
 
-/// Builds the hierarchy of `graph` with `verifier` scoring bridges and
-/// trusted edges against `threshold` (see the file comment).
+/// Builds the hierarchy of `graph` with `verifier` scoring bridges (against
+/// the skeleton's verify_threshold) and trusted edges (against
+/// trusted_threshold; see the file comment).
 VerifiedHierarchy BuildVerifiedHierarchy(
     const ViewGraph& graph, MultiViewVerifier& verifier,
-    const HierarchyOptions& hierarchy_options, double threshold,
+    const HierarchyOptions& hierarchy_options,
     const VerifiedHierarchyOptions& options);
 
 }  // namespace hisfm
