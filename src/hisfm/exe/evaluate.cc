@@ -11,7 +11,7 @@
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
 #include "hisfm/exe/option_flags.h"
-#include "hisfm/io/database.h"
+#include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/retriangulation.h"
 #include "hisfm/util/error.h"
@@ -105,7 +105,7 @@ int RunEvaluate(int argc, char** argv) {
   options.Check();
   if (!output_path.empty()) CheckOutputFile(output_path);
   if (!database_path.empty()) {
-    { Database probe(database_path); }  // A one-line error before any work.
+    RequireValidDatabase(database_path);  // One line, before any work.
     CheckDirectoryExists(image_path, "image folder");
   }
 

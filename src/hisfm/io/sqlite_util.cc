@@ -64,6 +64,23 @@ SqliteConnection OpenReadOnlyConnection(const std::string& path,
   return connection;
 }
 
+std::string DescribeSqliteError(sqlite3* db) {
+  const std::string message = sqlite3_errmsg(db);
+  switch (sqlite3_errcode(db) & 0xff) {
+    case SQLITE_CORRUPT:
+      return "the file is corrupt (SQLite: " + message + ")";
+    case SQLITE_NOTADB:
+      return "the file is not an SQLite database (SQLite: " + message + ")";
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+      return "it is locked by another program that is writing it, e.g. "
+             "colmap (SQLite: " +
+             message + "); try again when that program has finished";
+    default:
+      return message;
+  }
+}
+
 void SqliteExec(sqlite3* db, const std::string& sql) {
   char* message = nullptr;
   const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
