@@ -73,9 +73,11 @@ class InputSafetyTest : public ::testing::Test {
         << "#!/bin/sh\ntouch " << (*shared_ / "colmap_called")
         << "\necho 'COLMAP 3.8 (fake)'\nexit 1\n";
     fs::permissions(*shared_ / "bin/colmap", fs::perms::owner_all);
-    const int code = RunShell(Hisfm() + " synth --log_level warn --scene "
+    const int code = RunShell(Hisfm() +
+                              " synth --log_level warn --scene "
                               "street --num_images 12 --seed 1 "
-                              "--output_path " + (*shared_ / "scene"));
+                              "--output_path " +
+                              (*shared_ / "scene"));
     ASSERT_EQ(code, 0);
   }
   static void TearDownTestSuite() {
@@ -90,11 +92,11 @@ class InputSafetyTest : public ::testing::Test {
   // Runs `hisfm args` with the fake colmap first on PATH, at most 90 s and,
   // unless sanitizers reserve their shadow memory, 8 GB of address space.
   Result Run(const std::string& args) {
-    const std::string limits =
-        std::string("ulimit -t 90; ") + (kSanitized ? "" : "ulimit -v 8388608; ");
-    const std::string command =
-        "PATH=" + (*shared_ / "bin") + ":$PATH timeout -s KILL 90 " +
-        Hisfm() + " " + args;
+    const std::string limits = std::string("ulimit -t 90; ") +
+                               (kSanitized ? "" : "ulimit -v 8388608; ");
+    const std::string command = "PATH=" + (*shared_ / "bin") +
+                                ":$PATH timeout -s KILL 90 " + Hisfm() + " " +
+                                args;
     Result r;
     r.code = RunShell("bash -c '" + limits + command + "'", tmp_ / "log.txt");
     r.output = ReadTextFile(tmp_ / "log.txt");
@@ -119,8 +121,7 @@ class InputSafetyTest : public ::testing::Test {
     const char* tail = sql.c_str();
     while (*tail) {
       sqlite3_stmt* stmt = nullptr;
-      ASSERT_EQ(sqlite3_prepare_v2(handle, tail, -1, &stmt, &tail),
-                SQLITE_OK)
+      ASSERT_EQ(sqlite3_prepare_v2(handle, tail, -1, &stmt, &tail), SQLITE_OK)
           << sqlite3_errmsg(handle);
       if (!stmt) break;
       if (!blob.empty()) {
@@ -155,8 +156,7 @@ class InputSafetyTest : public ::testing::Test {
       EXPECT_NE(r.code, 0);
       EXPECT_NE(r.code, 137) << "killed: over time or memory";
       EXPECT_EQ(NumLines(r.output), 1u) << r.output;
-      EXPECT_EQ(r.output.rfind("error: invalid database ", 0), 0u)
-          << r.output;
+      EXPECT_EQ(r.output.rfind("error: invalid database ", 0), 0u) << r.output;
       EXPECT_NE(r.output.find(message), std::string::npos) << r.output;
       EXPECT_FALSE(fs::exists(out));
       EXPECT_FALSE(fs::exists(out + "_work"));
@@ -198,7 +198,8 @@ TEST_F(InputSafetyTest, HugeRowCountsAreRefusedWithoutAllocating) {
                                "9223372036854775807 WHERE image_id = 2"),
                 "keypoints, image 2: rows x cols = 9223372036854775807 x 2");
   ExpectRefused(BrokenDatabase("UPDATE two_view_geometries SET rows = "
-                               "2147483647" + std::string(kFirstPair)),
+                               "2147483647" +
+                               std::string(kFirstPair)),
                 "rows x cols = 2147483647 x 2 uint32 does not match");
 }
 
@@ -206,18 +207,16 @@ TEST_F(InputSafetyTest, NonFiniteKeypointsWouldHangColmap) {
   const std::string count =
       "(SELECT rows * cols FROM keypoints WHERE image_id = 3)";
   std::vector<float> all_nan(10000, std::numeric_limits<float>::quiet_NaN());
-  ExpectRefused(
-      BrokenDatabase("UPDATE keypoints SET data = substr(?, 1, 4 * " + count +
-                         ") WHERE image_id = 3",
-                     Bytes(all_nan)),
-      "keypoints, image 3: keypoint 0 has a non-finite value (nan)");
+  ExpectRefused(BrokenDatabase("UPDATE keypoints SET data = substr(?, 1, 4 * " +
+                                   count + ") WHERE image_id = 3",
+                               Bytes(all_nan)),
+                "keypoints, image 3: keypoint 0 has a non-finite value (nan)");
   std::vector<float> one_inf(10000, 5.0f);
   one_inf[9] = std::numeric_limits<float>::infinity();
-  ExpectRefused(
-      BrokenDatabase("UPDATE keypoints SET data = substr(?, 1, 4 * " + count +
-                         ") WHERE image_id = 3",
-                     Bytes(one_inf)),
-      "keypoints, image 3: keypoint 4 has a non-finite value (inf)");
+  ExpectRefused(BrokenDatabase("UPDATE keypoints SET data = substr(?, 1, 4 * " +
+                                   count + ") WHERE image_id = 3",
+                               Bytes(one_inf)),
+                "keypoints, image 3: keypoint 4 has a non-finite value (inf)");
 }
 
 TEST_F(InputSafetyTest, RowsColmapWouldAbortOn) {
@@ -248,18 +247,20 @@ TEST_F(InputSafetyTest, SilentlyAcceptedBeforeNowRefused) {
     std::vector<double> values(n, 0.25);
     values[n / 2] = std::nan("");
     ExpectRefused(BrokenDatabase("UPDATE two_view_geometries SET " +
-                                     std::string(column) + " = ?" +
-                                     kFirstPair,
+                                     std::string(column) + " = ?" + kFirstPair,
                                  Bytes(values)),
                   std::string(column) + " has a non-finite value");
   }
-  const std::string empty_pair = ", 0, 2, NULL, 0, NULL, NULL, NULL, NULL, "
-                                 "NULL)";
+  const std::string empty_pair =
+      ", 0, 2, NULL, 0, NULL, NULL, NULL, NULL, "
+      "NULL)";
   ExpectRefused(BrokenDatabase("INSERT INTO two_view_geometries VALUES "
-                               "(2147483647 * 3 + 40" + empty_pair),
+                               "(2147483647 * 3 + 40" +
+                               empty_pair),
                 "images 3 and 40: image 40 is not in the images table");
   ExpectRefused(BrokenDatabase("INSERT INTO two_view_geometries VALUES "
-                               "(2147483647 * 3 + 3" + empty_pair),
+                               "(2147483647 * 3 + 3" +
+                               empty_pair),
                 "images 3 and 3: pairs image 3 with itself");
   ExpectRefused(BrokenDatabase("UPDATE two_view_geometries SET config = 99" +
                                std::string(kFirstPair)),
@@ -282,8 +283,9 @@ TEST_F(InputSafetyTest, DuplicateNamesAreNamedAsSuch) {
                             "matches", "two_view_geometries"}) {
     sql += StrCat("INSERT INTO ", table, " SELECT * FROM src.", table, ";");
   }
-  sql += "DETACH DATABASE src; UPDATE images SET name = (SELECT name FROM "
-         "images WHERE image_id = 1) WHERE image_id = 5;";
+  sql +=
+      "DETACH DATABASE src; UPDATE images SET name = (SELECT name FROM "
+      "images WHERE image_id = 1) WHERE image_id = 5;";
   Exec(db, sql);
   ExpectRefused(db, "images, image 5: name '");
   const Result r = Run("mapper --database_path " + db + " --image_path " +
@@ -316,8 +318,8 @@ std::string BrokenModel(const TempDir& tmp, const std::string& ground_truth,
 }
 
 TEST_F(InputSafetyTest, BadModelsAreRefusedByEveryReader) {
-  const std::vector<std::pair<std::function<void(Reconstruction*)>,
-                              std::string>>
+  const std::vector<
+      std::pair<std::function<void(Reconstruction*)>, std::string>>
       cases = {
           {[](Reconstruction* m) {
              m->images.begin()->second.cam_from_world.rotation.x() =
@@ -353,8 +355,7 @@ TEST_F(InputSafetyTest, BadModelsAreRefusedByEveryReader) {
     for (const std::string& command :
          {"evaluate --model " + model + " --reference " +
               Scene("ground_truth") + " --output_path " + out,
-          "evaluate --model " + Scene("ground_truth") + " --reference " +
-              model,
+          "evaluate --model " + Scene("ground_truth") + " --reference " + model,
           "model_stats --input_path " + model,
           "model_export --input_path " + model + " --output_path " + out,
           "model_converter --input_path " + model + " --output_path " +
@@ -389,7 +390,8 @@ TEST_F(InputSafetyTest, OutputsNeverReplaceModelFiles) {
   const std::string run = tmp_ / "run";
   fs::create_directories(run);
   fs::copy(Scene("ground_truth"), run + "/0");
-  std::ofstream(run + "/hisfm_summary.json") << R"({"models": [{"path": "0"}]})";
+  std::ofstream(run + "/hisfm_summary.json")
+      << R"({"models": [{"path": "0"}]})";
   auto fingerprints = [&] {
     std::vector<uint64_t> out;
     for (const std::string& folder : {ref, m, run + "/0"}) {
@@ -450,8 +452,8 @@ TEST_F(InputSafetyTest, OutputsNeverReplaceModelFiles) {
 }
 
 bool GoneWithin(pid_t pid, double seconds) {
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration<double>(seconds);
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   do {
     std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
     std::string line;

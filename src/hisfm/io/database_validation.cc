@@ -74,8 +74,7 @@ bool IsInteger(sqlite3_stmt* stmt, int col) {
 // "rows x cols = R x C values of B bytes (N bytes)" unless `bytes` is exactly
 // rows * cols * element_bytes; computed without overflow for any 64-bit
 // rows and cols >= 0.
-bool SizeMatches(int64_t rows, int64_t cols, int element_bytes,
-                 int64_t bytes) {
+bool SizeMatches(int64_t rows, int64_t cols, int element_bytes, int64_t bytes) {
   if (rows < 0 || cols < 0 || bytes < 0) return false;
   const __int128 expected =
       static_cast<__int128>(rows) * cols * static_cast<__int128>(element_bytes);
@@ -157,10 +156,9 @@ void CheckCameras(sqlite3* db, ProblemList* out,
     }
     camera_ids->insert(rowid);
     const int64_t model = sqlite3_column_int64(s, 2);
-    const int num_params =
-        IsInteger(s, 2) && model >= 0 && model <= 1000
-            ? CameraModelNumParams(static_cast<int>(model))
-            : -1;
+    const int num_params = IsInteger(s, 2) && model >= 0 && model <= 1000
+                               ? CameraModelNumParams(static_cast<int>(model))
+                               : -1;
     if (num_params < 0) {
       out->Add(kTable, id,
                StrCat("model ", ValueText(s, 2),
@@ -186,8 +184,7 @@ void CheckCameras(sqlite3* db, ProblemList* out,
       out->Add(kTable, id,
                StrCat("params hold ", bytes, " bytes; ",
                       CameraModelIdToName(static_cast<int>(model)), " has ",
-                      num_params, " parameters (", num_params * 8,
-                      " bytes)"));
+                      num_params, " parameters (", num_params * 8, " bytes)"));
       continue;
     }
     std::vector<double> params(num_params);
@@ -246,6 +243,9 @@ void CheckImages(sqlite3* db, const std::unordered_set<int64_t>& camera_ids,
                  })) {
         out->Add(kTable, id,
                  "name contains a line break or another control character");
+      } else if (name.front() == ' ' || name.back() == ' ') {
+        // colmap reads image lists line by line, trimmed.
+        out->Add(kTable, id, "name begins or ends with a space");
       } else if (const auto [it, inserted] = names.emplace(name, rowid);
                  !inserted) {
         out->Add(kTable, id,
@@ -274,8 +274,7 @@ int64_t CheckFeatureRow(sqlite3_stmt* s, const char* table, const char* id,
   const int64_t rows = sqlite3_column_int64(s, 2);
   const int64_t cols = sqlite3_column_int64(s, 3);
   if (!IsInteger(s, 2) || rows < 0) {
-    out->Add(table, id, StrCat("rows ", ValueText(s, 2),
-                               " is not a count"));
+    out->Add(table, id, StrCat("rows ", ValueText(s, 2), " is not a count"));
     return -1;
   }
   if (!IsInteger(s, 3) || std::find(allowed_cols.begin(), allowed_cols.end(),
@@ -285,8 +284,7 @@ int64_t CheckFeatureRow(sqlite3_stmt* s, const char* table, const char* id,
       allowed += allowed.empty() ? "" : " or ";
       allowed += std::to_string(c);
     }
-    out->Add(table, id,
-             StrCat("cols ", ValueText(s, 3), " is not ", allowed));
+    out->Add(table, id, StrCat("cols ", ValueText(s, 3), " is not ", allowed));
     return -1;
   }
   const char* type = reinterpret_cast<const char*>(sqlite3_column_text(s, 4));
@@ -296,7 +294,8 @@ int64_t CheckFeatureRow(sqlite3_stmt* s, const char* table, const char* id,
     out->Add(table, id, StrCat("data is ", data_type, ", not a blob"));
     return -1;
   }
-  if (!SizeMatches(rows, cols, element_bytes, data_type == "null" ? 0 : bytes)) {
+  if (!SizeMatches(rows, cols, element_bytes,
+                   data_type == "null" ? 0 : bytes)) {
     out->Add(table, id, SizeMismatch(rows, cols, element, bytes));
     return -1;
   }
@@ -321,13 +320,14 @@ void CheckKeypoints(sqlite3* db, ProblemList* out, KeypointCounts* images) {
     const std::string id = StrCat("image ", rowid);
     const auto image = images->find(rowid);
     if (image == images->end()) {
-      out->Add(kTable, id, "keypoints of an image that is not in the images "
-                           "table");
+      out->Add(kTable, id,
+               "keypoints of an image that is not in the images "
+               "table");
       continue;
     }
     image->second = kBadKeypointRow;
-    const int64_t rows = CheckFeatureRow(s, kTable, id.c_str(), {2, 4, 6}, 4,
-                                         "floats", out);
+    const int64_t rows =
+        CheckFeatureRow(s, kTable, id.c_str(), {2, 4, 6}, 4, "floats", out);
     if (rows < 0) continue;
     const int64_t cols = sqlite3_column_int64(s, 3);
     if (rows > 0) {
@@ -369,8 +369,9 @@ void CheckDescriptors(sqlite3* db, const KeypointCounts& images,
     const std::string id = StrCat("image ", rowid);
     const auto image = images.find(rowid);
     if (image == images.end()) {
-      out->Add(kTable, id, "descriptors of an image that is not in the "
-                           "images table");
+      out->Add(kTable, id,
+               "descriptors of an image that is not in the "
+               "images table");
       continue;
     }
     const int64_t rows =
@@ -379,8 +380,7 @@ void CheckDescriptors(sqlite3* db, const KeypointCounts& images,
     const int64_t num_keypoints = std::max<int64_t>(0, image->second);
     if (rows != num_keypoints) {
       out->Add(kTable, id,
-               StrCat(rows, " descriptors for ", num_keypoints,
-                      " keypoints"));
+               StrCat(rows, " descriptors for ", num_keypoints, " keypoints"));
     }
   }
 }
@@ -412,9 +412,9 @@ void CheckMatchIndices(const PairTable& table, const std::string& id,
     const int64_t count = images.at(ids[k]);
     if (count == kBadKeypointRow) continue;  // Reported with the keypoints.
     if (count == kNoKeypointRow) {
-      out->Add(table.name, id,
-               StrCat("image ", ids[k], " has ", table.what,
-                      " but no keypoints"));
+      out->Add(
+          table.name, id,
+          StrCat("image ", ids[k], " has ", table.what, " but no keypoints"));
       continue;
     }
     if (max_idx[k] < count) continue;
@@ -503,8 +503,8 @@ void CheckPairRow(sqlite3_stmt* s, const PairTable& table,
   const int64_t bytes = sqlite3_column_bytes(s, 4);
   bool blob_ok = false;
   if (!IsInteger(s, 2) || rows < 0) {
-    out->Add(table.name, id, StrCat("rows ", ValueText(s, 2),
-                                    " is not a count"));
+    out->Add(table.name, id,
+             StrCat("rows ", ValueText(s, 2), " is not a count"));
   } else if (!IsInteger(s, 3) || !(cols == 2 || (cols == 0 && rows == 0))) {
     out->Add(table.name, id, StrCat("cols ", ValueText(s, 3), " is not 2"));
   } else if (type != SQLITE_BLOB && !(type == SQLITE_NULL && rows == 0)) {
@@ -543,23 +543,21 @@ void CheckPairTable(const std::string& path, sqlite3* db,
   {
     SqliteStatement bounds(
         db, StrCat("SELECT min(rowid), max(rowid) FROM ", table.name));
-    if (!bounds.Step() ||
-        sqlite3_column_type(bounds.get(), 0) == SQLITE_NULL) {
+    if (!bounds.Step() || sqlite3_column_type(bounds.get(), 0) == SQLITE_NULL) {
       return;  // Empty.
     }
     lo = sqlite3_column_int64(bounds.get(), 0);
     hi = sqlite3_column_int64(bounds.get(), 1);
   }
   const __int128 span = static_cast<__int128>(hi) - lo + 1;
-  const size_t num_chunks =
-      static_cast<size_t>(std::min<__int128>(64, span));
+  const size_t num_chunks = static_cast<size_t>(std::min<__int128>(64, span));
   auto chunk_begin = [&](size_t c) {
     return static_cast<int64_t>(lo + span * c / num_chunks);
   };
-  const std::string sql = StrCat(
-      "SELECT rowid, pair_id, rows, cols, data",
-      table.geometry ? ", config, F, E, H, qvec, tvec" : "", " FROM ",
-      table.name, " WHERE rowid >= ? AND rowid <= ? ORDER BY rowid");
+  const std::string sql =
+      StrCat("SELECT rowid, pair_id, rows, cols, data",
+             table.geometry ? ", config, F, E, H, qvec, tvec" : "", " FROM ",
+             table.name, " WHERE rowid >= ? AND rowid <= ? ORDER BY rowid");
   const SqliteConnection second =
       num_chunks > 1 ? OpenReadOnlyConnection(path) : nullptr;
   sqlite3* const connections[2] = {db, second.get()};
@@ -694,9 +692,8 @@ std::vector<DatabaseProblem> ValidateDatabase(
     if (out.Full()) break;
     if (!keyed(table.name, "pair_id")) continue;
     const size_t remaining = limit == 0 ? 0 : limit - out.size();
-    Guarded(db, table.name, &out, [&] {
-      CheckPairTable(path, db, table, images, remaining, &out);
-    });
+    Guarded(db, table.name, &out,
+            [&] { CheckPairTable(path, db, table, images, remaining, &out); });
   }
 
   return std::move(out.problems());
@@ -706,8 +703,7 @@ void RequireValidDatabase(const std::string& path) {
   DatabaseValidationOptions options;
   options.max_problems = 1;
   Timer timer;
-  const std::vector<DatabaseProblem> problems =
-      ValidateDatabase(path, options);
+  const std::vector<DatabaseProblem> problems = ValidateDatabase(path, options);
   if (problems.empty()) {
     HISFM_LOG_DEBUG("database {} checked: no problems ({:.2f} s)", path,
                     timer.ElapsedSeconds());

@@ -7,7 +7,8 @@
 //             height positive; params a blob of exactly that model's
 //             parameter count, finite, focal lengths positive.
 //   images:   id in [0, 2^31 - 1); name text, not empty, without line
-//             breaks or other control characters, unique; camera present.
+//             breaks or other control characters or spaces at either end,
+//             unique; camera present.
 //   keypoints, descriptors: image present; rows >= 0; cols 2, 4 or 6
 //             (keypoints) or 128 (descriptors); blob size rows x cols x
 //             element size, compared before anything is allocated; keypoint

@@ -193,23 +193,23 @@ TEST_F(DatabaseValidationTest, NonFiniteKeypointsRefuseTheDatabase) {
   for (const float value : {std::numeric_limits<float>::quiet_NaN(),
                             std::numeric_limits<float>::infinity(),
                             -std::numeric_limits<float>::infinity()}) {
-    const auto problems = After(
-        "UPDATE keypoints SET data = ? WHERE image_id = 3",
-        KeypointsWith(value));
+    const auto problems =
+        After("UPDATE keypoints SET data = ? WHERE image_id = 3",
+              KeypointsWith(value));
     ExpectOne(problems, "keypoints", "image 3",
               "keypoint 3 has a non-finite value");
     EXPECT_NE(problems[0].message.find("refuses"), std::string::npos);
   }
   std::vector<float> all_nan(2 * kNumKeypoints,
                              std::numeric_limits<float>::quiet_NaN());
-  ExpectOne(After("UPDATE keypoints SET data = ? WHERE image_id = 3",
-                  Bytes(all_nan)),
-            "keypoints", "image 3", "keypoint 0 has a non-finite value");
+  ExpectOne(
+      After("UPDATE keypoints SET data = ? WHERE image_id = 3", Bytes(all_nan)),
+      "keypoints", "image 3", "keypoint 0 has a non-finite value");
 }
 
 TEST_F(DatabaseValidationTest, KeypointsAndDescriptorsOfMissingImages) {
-  ExpectOne(After("INSERT INTO keypoints VALUES (9, 0, 2, NULL)"),
-            "keypoints", "image 9", "not in the images table");
+  ExpectOne(After("INSERT INTO keypoints VALUES (9, 0, 2, NULL)"), "keypoints",
+            "image 9", "not in the images table");
   ExpectOne(After("DELETE FROM keypoints WHERE image_id = 9; INSERT INTO "
                   "descriptors VALUES (9, 0, 128, NULL)"),
             "descriptors", "image 9", "not in the images table");
@@ -228,18 +228,17 @@ TEST_F(DatabaseValidationTest, TwoViewGeometryShapes) {
   const std::string pair = "WHERE pair_id = 2147483647 * 2 + 4";
   ExpectOne(After("UPDATE two_view_geometries SET cols = 3 " + pair),
             "two_view_geometries", "images 2 and 4", "cols 3 is not 2");
-  ExpectOne(After("UPDATE two_view_geometries SET cols = 2, rows = 16 " +
-                  pair),
+  ExpectOne(After("UPDATE two_view_geometries SET cols = 2, rows = 16 " + pair),
             "two_view_geometries", "images 2 and 4",
             "rows x cols = 16 x 2 uint32 does not match its 120-byte");
-  ExpectOne(After("UPDATE two_view_geometries SET rows = 15, F = x'00' " +
-                  pair),
-            "two_view_geometries", "images 2 and 4",
-            "F holds 1 bytes instead of 9 doubles");
-  ExpectOne(After("UPDATE two_view_geometries SET F = NULL, config = 99 " +
-                  pair),
-            "two_view_geometries", "images 2 and 4",
-            "config 99 is not a COLMAP two-view configuration");
+  ExpectOne(
+      After("UPDATE two_view_geometries SET rows = 15, F = x'00' " + pair),
+      "two_view_geometries", "images 2 and 4",
+      "F holds 1 bytes instead of 9 doubles");
+  ExpectOne(
+      After("UPDATE two_view_geometries SET F = NULL, config = 99 " + pair),
+      "two_view_geometries", "images 2 and 4",
+      "config 99 is not a COLMAP two-view configuration");
   ExpectOne(After("UPDATE two_view_geometries SET config = -1 " + pair),
             "two_view_geometries", "images 2 and 4", "config -1");
 }
@@ -253,11 +252,11 @@ TEST_F(DatabaseValidationTest, NonFiniteMatricesAndPoses) {
   for (const auto& [column, n] : columns) {
     for (const double value : {nan, inf}) {
       Restore();
-      ExpectOne(After("UPDATE two_view_geometries SET " + column + " = ?" +
-                          pair,
-                      MatrixWith(n, value)),
-                "two_view_geometries", "images 1 and 3",
-                column + " has a non-finite value");
+      ExpectOne(
+          After("UPDATE two_view_geometries SET " + column + " = ?" + pair,
+                MatrixWith(n, value)),
+          "two_view_geometries", "images 1 and 3",
+          column + " has a non-finite value");
     }
   }
 }
@@ -265,11 +264,11 @@ TEST_F(DatabaseValidationTest, NonFiniteMatricesAndPoses) {
 TEST_F(DatabaseValidationTest, MatchIndicesPastTheKeypoints) {
   std::vector<uint32_t> matches(30, 1);
   matches[2 * 6 + 1] = kNumKeypoints;  // Match 6, second image.
-  const auto problems =
-      After("UPDATE two_view_geometries SET data = ? WHERE pair_id = "
-            "2147483647 * 2 + 5; UPDATE matches SET data = ? WHERE pair_id "
-            "= 2147483647 * 1 + 2",
-            Bytes(matches));
+  const auto problems = After(
+      "UPDATE two_view_geometries SET data = ? WHERE pair_id = "
+      "2147483647 * 2 + 5; UPDATE matches SET data = ? WHERE pair_id "
+      "= 2147483647 * 1 + 2",
+      Bytes(matches));
   ASSERT_EQ(problems.size(), 2u);
   EXPECT_EQ(FormatDatabaseProblem(problems[0]),
             "two_view_geometries, images 2 and 5: match 6 names keypoint 20 "
@@ -285,12 +284,14 @@ TEST_F(DatabaseValidationTest, MatchIndicesPastTheKeypoints) {
 TEST_F(DatabaseValidationTest, PairIdsNameTwoExistingImages) {
   const std::string values = ", 0, 2, NULL, 0, NULL, NULL, NULL, NULL, NULL)";
   ExpectOne(After("INSERT INTO two_view_geometries VALUES (2147483647 * 2 + "
-                  "9" + values),
+                  "9" +
+                  values),
             "two_view_geometries", "images 2 and 9",
             "image 9 is not in the images table");
   ExpectOne(After("DELETE FROM two_view_geometries WHERE pair_id = "
                   "2147483647 * 2 + 9; INSERT INTO two_view_geometries "
-                  "VALUES (2147483647 * 3 + 3" + values),
+                  "VALUES (2147483647 * 3 + 3" +
+                  values),
             "two_view_geometries", "images 3 and 3",
             "pairs image 3 with itself");
   ExpectOne(After("DELETE FROM two_view_geometries WHERE pair_id = "
@@ -304,8 +305,9 @@ TEST_F(DatabaseValidationTest, PairIdsNameTwoExistingImages) {
 }
 
 TEST_F(DatabaseValidationTest, ImagesWithVerifiedPairsNeedKeypoints) {
-  const auto problems = After("DELETE FROM keypoints WHERE image_id = 5; "
-                              "DELETE FROM descriptors WHERE image_id = 5");
+  const auto problems = After(
+      "DELETE FROM keypoints WHERE image_id = 5; "
+      "DELETE FROM descriptors WHERE image_id = 5");
   // Four verified pairs and four raw ones with image 5.
   ASSERT_EQ(problems.size(), 8u);
   EXPECT_EQ(FormatDatabaseProblem(problems[0]),
@@ -339,8 +341,10 @@ TEST_F(DatabaseValidationTest, ImagesNeedTheirCameraAndAName) {
   ExpectOne(After("UPDATE images SET camera_id = 1, name = 'a\nb.jpg' WHERE "
                   "image_id = 2"),
             "images", "image 2", "line break");
-  ExpectOne(After("UPDATE images SET name = '' WHERE image_id = 2"),
-            "images", "image 2", "name is empty");
+  ExpectOne(After("UPDATE images SET name = '' WHERE image_id = 2"), "images",
+            "image 2", "name is empty");
+  ExpectOne(After("UPDATE images SET name = 'b.jpg ' WHERE image_id = 2"),
+            "images", "image 2", "name begins or ends with a space");
 }
 
 // COLMAP's schema makes names unique; a database written by another tool
@@ -406,8 +410,7 @@ TEST_F(DatabaseValidationTest, CorruptFileIsNamedAsSuch) {
   const auto problems = ValidateDatabase(path_);
   ASSERT_FALSE(problems.empty());
   EXPECT_EQ(problems[0].table, "two_view_geometries");
-  EXPECT_NE(problems[0].message.find("the file is corrupt"),
-            std::string::npos)
+  EXPECT_NE(problems[0].message.find("the file is corrupt"), std::string::npos)
       << FormatDatabaseProblem(problems[0]);
   EXPECT_EQ(problems[0].message.find("-wal"), std::string::npos);
 }

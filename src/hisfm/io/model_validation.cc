@@ -70,15 +70,13 @@ void CheckCameras(const Reconstruction& model, Problems* out) {
                                   [](double p) { return !std::isfinite(p); });
     if (bad != camera.params.end()) {
       out->Add("cameras", id,
-               StrCat("parameter ", bad - camera.params.begin(), " is ",
-                      *bad));
+               StrCat("parameter ", bad - camera.params.begin(), " is ", *bad));
       continue;
     }
     for (int k = 0; k < CameraModelNumFocalLengths(camera.model_id); ++k) {
       if (!(camera.params[k] > 0)) {
         out->Add("cameras", id,
-                 StrCat("focal length ", camera.params[k],
-                        " is not positive"));
+                 StrCat("focal length ", camera.params[k], " is not positive"));
         break;
       }
     }
@@ -105,9 +103,9 @@ void CheckImages(const Reconstruction& model, Problems* out) {
     }
     const Eigen::Vector3d& t = image.cam_from_world.translation;
     if (!AllFinite(t)) {
-      out->Add("images", id,
-               StrCat("translation ", VectorText(t.data(), 3),
-                      " is not finite"));
+      out->Add(
+          "images", id,
+          StrCat("translation ", VectorText(t.data(), 3), " is not finite"));
     }
     if (image.name.empty()) {
       out->Add("images", id, "name is empty");
@@ -116,6 +114,9 @@ void CheckImages(const Reconstruction& model, Problems* out) {
                })) {
       out->Add("images", id,
                "name contains a line break or another control character");
+    } else if (image.name.front() == ' ' || image.name.back() == ' ') {
+      // The text format's name is the rest of its line, trimmed.
+      out->Add("images", id, "name begins or ends with a space");
     } else if (const auto [it, inserted] = names.emplace(image.name, image_id);
                !inserted) {
       out->Add("images", id,
@@ -144,8 +145,7 @@ void CheckPoints(const Reconstruction& model, Problems* out) {
     if (out->Full()) return;
     const std::string id = StrCat("point ", point3D_id);
     if (point3D_id == kInvalidPoint3DId) {
-      out->Add("points3D", id,
-               "id 2^64 - 1 means 'no point' in COLMAP models");
+      out->Add("points3D", id, "id 2^64 - 1 means 'no point' in COLMAP models");
     }
     if (!AllFinite(point.xyz) || !std::isfinite(point.error)) {
       out->Add("points3D", id,
@@ -157,8 +157,8 @@ void CheckPoints(const Reconstruction& model, Problems* out) {
       const auto image = model.images.find(element.image_id);
       if (image == model.images.end()) {
         out->Add("points3D", id,
-                 StrCat("track element ", k, " names image ",
-                        element.image_id, ", which is not in the model"));
+                 StrCat("track element ", k, " names image ", element.image_id,
+                        ", which is not in the model"));
         break;
       }
       const std::vector<Point2D>& points2D = image->second.points2D;
@@ -171,13 +171,12 @@ void CheckPoints(const Reconstruction& model, Problems* out) {
       }
       const Point3DId observed = points2D[element.point2D_idx].point3D_id;
       if (observed != point3D_id) {
-        out->Add("points3D", id,
-                 StrCat("track element ", k, " names point2D ",
-                        element.point2D_idx, " of image ", element.image_id,
-                        ", which observes ",
-                        observed == kInvalidPoint3DId
-                            ? std::string("no point")
-                            : StrCat("point ", observed)));
+        out->Add(
+            "points3D", id,
+            StrCat("track element ", k, " names point2D ", element.point2D_idx,
+                   " of image ", element.image_id, ", which observes ",
+                   observed == kInvalidPoint3DId ? std::string("no point")
+                                                 : StrCat("point ", observed)));
         break;
       }
     }

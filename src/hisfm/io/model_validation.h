@@ -11,8 +11,8 @@
 //             has, finite, focal lengths positive.
 //   images:   camera present; rotation quaternion finite and not zero;
 //             translation finite; name not empty, without line breaks or
-//             other control characters, unique; 2D points finite; a 2D
-//             point's 3D point present in points3D.
+//             other control characters or spaces at either end, unique; 2D
+//             points finite; a 2D point's 3D point present in points3D.
 //   points3D: id not COLMAP's "no point" (2^64 - 1); position and error
 //             finite; every track element names an image of the model, a 2D
 //             point of that image (index in range) that observes this point.

@@ -145,6 +145,9 @@ TEST(ModelValidation, NamesAreUniqueAndOneLine) {
             "images, image 3: name 'img1.jpg' is also the name of image 1");
   p = OneProblem([](Reconstruction* m) { m->images[3].name = "a\nb"; });
   EXPECT_NE(p.message.find("line break"), std::string::npos);
+  p = OneProblem([](Reconstruction* m) { m->images[3].name = " c.jpg"; });
+  EXPECT_EQ(FormatModelProblem(p),
+            "images, image 3: name begins or ends with a space");
   p = OneProblem([](Reconstruction* m) { m->images[3].camera_id = 7; });
   EXPECT_EQ(FormatModelProblem(p),
             "images, image 3: refers to camera 7, which is not in the model");
@@ -199,8 +202,8 @@ TEST(ModelValidation, ReadersRefuseInvalidModels) {
 
 TEST(ModelValidation, ReferenceModelsAreValid) {
   for (const char* scene : {"books", "cup", "oats"}) {
-    const std::string path = SharedDataPath(
-        std::string("yan2017/") + scene, "reference");
+    const std::string path =
+        SharedDataPath(std::string("yan2017/") + scene, "reference");
     if (path.empty()) continue;
     EXPECT_TRUE(ValidateModel(ReadModelUnvalidated(path)).empty()) << scene;
   }

@@ -52,10 +52,9 @@ std::string Problem(const std::string& field, const Json& j, Kind kind) {
 
 // The first field of `fields` that object `j` has with another type (null
 // allowed if `null_ok`); `prefix` names `j`.
-std::string CheckFields(const Json& j, const std::string& prefix,
-                        std::initializer_list<std::pair<const char*, Kind>>
-                            fields,
-                        bool null_ok) {
+std::string CheckFields(
+    const Json& j, const std::string& prefix,
+    std::initializer_list<std::pair<const char*, Kind>> fields, bool null_ok) {
   for (const auto& [key, kind] : fields) {
     if (!j.contains(key)) continue;
     const Json& value = j.at(key);
@@ -68,8 +67,7 @@ std::string CheckFields(const Json& j, const std::string& prefix,
 // Checks that `j[key]`, if present, is an array of objects with `fields`.
 std::string CheckArrayOfObjects(
     const Json& j, const char* key,
-    std::initializer_list<std::pair<const char*, Kind>> fields,
-    bool null_ok) {
+    std::initializer_list<std::pair<const char*, Kind>> fields, bool null_ok) {
   if (!j.contains(key)) return "";
   const Json& array = j.at(key);
   if (!array.is_array()) return Problem(key, array, Kind::kArray);
@@ -86,37 +84,37 @@ std::string CheckArrayOfObjects(
 }  // namespace
 
 std::string FindSummaryJsonProblem(const Json& summary) {
-  if (!summary.is_object()) return Problem("(the file)", summary, Kind::kObject);
+  if (!summary.is_object())
+    return Problem("(the file)", summary, Kind::kObject);
   constexpr Kind kNumber = Kind::kNumber;
-  std::string problem = CheckFields(
-      summary, "",
-      {{"images", kNumber},
-       {"verified_pairs", kNumber},
-       {"pairs_after_filter", kNumber},
-       {"communities", kNumber},
-       {"candidate_bridges", kNumber},
-       {"num_trees", kNumber},
-       {"skeleton_bridges", kNumber},
-       {"rejected_bridges", kNumber},
-       {"skeleton_images", kNumber},
-       {"skeleton_edges", kNumber},
-       {"leaf_edges", kNumber},
-       {"hierarchy_edges", kNumber},
-       {"verifier", Kind::kString},
-       {"verifier_calls", kNumber},
-       {"verifier_batches", kNumber},
-       {"verified_fraction", kNumber},
-       {"components", kNumber},
-       {"isolated_images", kNumber},
-       {"database_path", Kind::kString},
-       {"image_path", Kind::kString},
-       {"work_path", Kind::kString},
-       {"registered_images", kNumber},
-       {"points3D", kNumber},
-       {"mean_reprojection_error", kNumber},
-       {"mean_track_length", kNumber},
-       {"timings", Kind::kObject}},
-      /*null_ok=*/true);
+  std::string problem = CheckFields(summary, "",
+                                    {{"images", kNumber},
+                                     {"verified_pairs", kNumber},
+                                     {"pairs_after_filter", kNumber},
+                                     {"communities", kNumber},
+                                     {"candidate_bridges", kNumber},
+                                     {"num_trees", kNumber},
+                                     {"skeleton_bridges", kNumber},
+                                     {"rejected_bridges", kNumber},
+                                     {"skeleton_images", kNumber},
+                                     {"skeleton_edges", kNumber},
+                                     {"leaf_edges", kNumber},
+                                     {"hierarchy_edges", kNumber},
+                                     {"verifier", Kind::kString},
+                                     {"verifier_calls", kNumber},
+                                     {"verifier_batches", kNumber},
+                                     {"verified_fraction", kNumber},
+                                     {"components", kNumber},
+                                     {"isolated_images", kNumber},
+                                     {"database_path", Kind::kString},
+                                     {"image_path", Kind::kString},
+                                     {"work_path", Kind::kString},
+                                     {"registered_images", kNumber},
+                                     {"points3D", kNumber},
+                                     {"mean_reprojection_error", kNumber},
+                                     {"mean_track_length", kNumber},
+                                     {"timings", Kind::kObject}},
+                                    /*null_ok=*/true);
   if (!problem.empty()) return problem;
   problem = CheckArrayOfObjects(summary, "models",
                                 {{"path", Kind::kString},

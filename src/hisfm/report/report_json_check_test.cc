@@ -46,7 +46,8 @@ TEST(ReportJsonCheck, WrongTypesNameTheField) {
             "'timings.total' should be a number, not \"long\"");
   s = ValidSummary();
   s["images"] = Json::array({1, 2});
-  EXPECT_EQ(FindSummaryJsonProblem(s), "'images' should be a number, not [1,2]");
+  EXPECT_EQ(FindSummaryJsonProblem(s),
+            "'images' should be a number, not [1,2]");
   EXPECT_EQ(FindSummaryJsonProblem(Json::array()),
             "'(the file)' should be an object, not []");
 }

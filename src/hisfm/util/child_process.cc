@@ -102,7 +102,8 @@ int RunChildProcess(const std::vector<std::string>& argv,
   // Everything the forked child needs is prepared here: it must not
   // allocate (another thread may hold the allocator's lock).
   std::vector<char*> cargs, cenv;
-  for (const std::string& a : argv) cargs.push_back(const_cast<char*>(a.c_str()));
+  for (const std::string& a : argv)
+    cargs.push_back(const_cast<char*>(a.c_str()));
   cargs.push_back(nullptr);
   for (const std::string& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
   cenv.push_back(nullptr);

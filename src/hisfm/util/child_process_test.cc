@@ -23,9 +23,8 @@ int RunScript(const std::string& script, const std::string& log,
               int* start_error) {
   const int fd = open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   EXPECT_GE(fd, 0);
-  const int code =
-      RunChildProcess({"sh", "-c", script}, CurrentEnvironment(), fd,
-                      start_error);
+  const int code = RunChildProcess({"sh", "-c", script}, CurrentEnvironment(),
+                                   fd, start_error);
   close(fd);
   return code;
 }
@@ -35,8 +34,8 @@ bool Alive(pid_t pid) { return kill(pid, 0) == 0 || errno == EPERM; }
 // Waits up to `seconds` for `pid` to be gone (a zombie counts as gone:
 // only its parent can reap it).
 bool GoneWithin(pid_t pid, double seconds) {
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration<double>(seconds);
+  const auto end =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (std::chrono::steady_clock::now() < end) {
     std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
     std::string line;
@@ -73,13 +72,13 @@ TEST(ChildProcess, ExitCodesOutputAndEnvironment) {
 TEST(ChildProcess, MissingProgramsAreReported) {
   TempDir tmp;
   int error = 0;
-  EXPECT_EQ(RunChildProcess({"no-such-program-hisfm"}, CurrentEnvironment(),
-                            1, &error),
+  EXPECT_EQ(RunChildProcess({"no-such-program-hisfm"}, CurrentEnvironment(), 1,
+                            &error),
             -1);
   EXPECT_EQ(error, ENOENT);
   std::ofstream(tmp / "not-executable") << "#!/bin/sh\n";
-  EXPECT_EQ(RunChildProcess({tmp / "not-executable"}, CurrentEnvironment(),
-                            1, &error),
+  EXPECT_EQ(RunChildProcess({tmp / "not-executable"}, CurrentEnvironment(), 1,
+                            &error),
             -1);
   EXPECT_EQ(error, EACCES);
 }
@@ -89,9 +88,9 @@ TEST(ChildProcess, MissingProgramsAreReported) {
 TEST(ChildProcess, LeavesNothingRunning) {
   TempDir tmp;
   int error = 0;
-  ASSERT_EQ(RunScript("sleep 300 & echo $! > " + (tmp / "pid"), tmp / "log",
-                      &error),
-            0);
+  ASSERT_EQ(
+      RunScript("sleep 300 & echo $! > " + (tmp / "pid"), tmp / "log", &error),
+      0);
   const pid_t grandchild = std::stoi(ReadTextFile(tmp / "pid"));
   EXPECT_TRUE(GoneWithin(grandchild, 3.0));
 }
@@ -105,9 +104,8 @@ TEST(ChildProcess, DiesWithItsParentEvenByKill9) {
   ASSERT_GE(parent, 0);
   if (parent == 0) {
     int error = 0;
-    const std::string script =
-        "sleep 300 & echo $$ $! > " + pids + ".tmp; mv " + pids + ".tmp " +
-        pids + "; wait";
+    const std::string script = "sleep 300 & echo $$ $! > " + pids +
+                               ".tmp; mv " + pids + ".tmp " + pids + "; wait";
     RunChildProcess({"sh", "-c", script}, CurrentEnvironment(), 2, &error);
     _exit(0);
   }
