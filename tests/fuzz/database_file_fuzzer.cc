@@ -9,6 +9,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace hisfm::fuzz;
   const std::string path = ScratchFolder() + "/file.db";
   WriteBytes(path, data, size);
-  CheckDatabase(path);
+  CheckDatabase(path, /*intact_file=*/false);
   return 0;
 }

@@ -1,7 +1,9 @@
 #include "fuzz_checks.h"
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -30,15 +32,26 @@ void Fail(const std::string& what) {
 }
 
 const std::string& ScratchFolder() {
-  static const std::string folder = [] {
+  // Never destroyed: the exit handler that removes the folder reads it.
+  static const std::string* const folder = [] {
     const std::string base =
         fs::is_directory("/dev/shm") && access("/dev/shm", W_OK) == 0
             ? "/dev/shm"
             : fs::temp_directory_path().string();
-    const std::string path =
-        StrCat(base, "/hisfm-fuzz-", static_cast<long>(getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
+    // Folders of earlier runs that crashed (no exit handler ran).
+    std::error_code ec;
+    for (const auto& entry : fs::directory_iterator(base, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name.rfind("hisfm-fuzz-", 0) != 0) continue;
+      const long pid = std::atol(name.c_str() + 11);
+      if (pid > 0 && kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+        fs::remove_all(entry.path(), ec);
+      }
+    }
+    const auto* path = new std::string(
+        StrCat(base, "/hisfm-fuzz-", static_cast<long>(getpid())));
+    fs::remove_all(*path);
+    fs::create_directories(*path);
     std::atexit([] {
       std::error_code ec;
       fs::remove_all(ScratchFolder(), ec);
@@ -47,7 +60,7 @@ const std::string& ScratchFolder() {
     SetLogLevel("off");
     return path;
   }();
-  return folder;
+  return *folder;
 }
 
 std::string ScratchSubfolder(const std::string& name) {
@@ -180,7 +193,7 @@ void CheckValidated(const std::string& path) {
 
 }  // namespace
 
-void CheckDatabase(const std::string& path) {
+void CheckDatabase(const std::string& path, bool intact_file) {
   ReadUnvalidated(path);
   std::vector<DatabaseProblem> problems;
   try {
@@ -197,6 +210,10 @@ void CheckDatabase(const std::string& path) {
   if (!problems.empty()) return;
   try {
     CheckValidated(path);
+  } catch (const Error& e) {
+    if (intact_file) {
+      Fail(StrCat("a reader failed on a validated database: ", e.what()));
+    }
   } catch (const std::exception& e) {
     Fail(StrCat("a reader failed on a validated database: ", e.what()));
   }

@@ -26,10 +26,13 @@ void WriteBytes(const std::string& path, const uint8_t* data, size_t size);
 
 /// Validates the database at `path` and reads it with every reader of
 /// hisfm/io/database.h. Unvalidated, readers may only throw hisfm::Error;
-/// validated, none may throw and what they return must hold what validation
-/// promises (counts, indices, finite values), and the filtered copy
-/// hisfm hands to colmap must validate too.
-void CheckDatabase(const std::string& path);
+/// validated, what they return must hold what validation promises (counts,
+/// indices, finite values), and the filtered copy hisfm hands to colmap
+/// must validate too. With `intact_file` (a file SQLite itself wrote) no
+/// reader may throw; otherwise (mutated bytes) the SQLite file may be
+/// damaged where validation does not look (b-tree order, pages it does not
+/// read), and readers may throw hisfm::Error.
+void CheckDatabase(const std::string& path, bool intact_file);
 
 /// Reads the model folder `path`; if it parses, writing it back in binary
 /// must give `binary_files` (cameras, images, points3D contents) when they

@@ -653,12 +653,32 @@ void WriteFilteredDatabase(const std::string& source_path,
     SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(ReadOnlyUri(source_path)) +
                        " AS src;");
     SqliteExec(db, "BEGIN;");
-    SqliteExec(db, "INSERT INTO cameras SELECT * FROM src.cameras;");
-    SqliteExec(db, "INSERT INTO images SELECT * FROM src.images;");
-    SqliteExec(db, "INSERT INTO keypoints SELECT * FROM src.keypoints;");
-    if (options.copy_descriptors) {
-      SqliteExec(db, "INSERT INTO descriptors SELECT * FROM src.descriptors;");
-    }
+    // Copies the columns of COLMAP 3.8's `table` that the source's has
+    // (other versions add or drop some, e.g. the images' priors), rows
+    // chosen by `where`. descriptors and matches may be absent from the
+    // source (COLMAP's mapper does not read them); the copy has COLMAP's
+    // whole schema.
+    auto copy = [&](const char* table, const std::string& where) {
+      std::string columns;
+      SqliteStatement info(
+          db, StrCat("SELECT name FROM pragma_table_info('", table,
+                     "', 'main') WHERE name IN (SELECT name FROM "
+                     "pragma_table_info('",
+                     table, "', 'src')) ORDER BY cid"));
+      while (info.Step()) {
+        // COLMAP's column names: plain identifiers, quoted all the same.
+        if (!columns.empty()) columns += ", ";
+        columns += StrCat("\"", sqlite3_column_text(info.get(), 0), "\"");
+      }
+      if (columns.empty()) return;  // No such table in the source.
+      SqliteExec(db, StrCat("INSERT INTO main.", table, " (", columns,
+                            ") SELECT ", columns, " FROM src.", table, where,
+                            ";"));
+    };
+    copy("cameras", "");
+    copy("images", "");
+    copy("keypoints", "");
+    if (options.copy_descriptors) copy("descriptors", "");
     SqliteExec(db, "CREATE TEMP TABLE keep_pairs (pair_id INTEGER PRIMARY KEY);");
     {
       SqliteStatement insert(db, "INSERT OR IGNORE INTO keep_pairs VALUES (?)");
@@ -669,15 +689,10 @@ void WriteFilteredDatabase(const std::string& source_path,
         insert.Reset();
       }
     }
-    SqliteExec(db,
-               "INSERT INTO two_view_geometries SELECT * FROM "
-               "src.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM "
-               "keep_pairs);");
-    if (options.copy_matches) {
-      SqliteExec(db,
-                 "INSERT INTO matches SELECT * FROM src.matches WHERE pair_id "
-                 "IN (SELECT pair_id FROM keep_pairs);");
-    }
+    const std::string kept =
+        " WHERE pair_id IN (SELECT pair_id FROM keep_pairs)";
+    copy("two_view_geometries", kept);
+    if (options.copy_matches) copy("matches", kept);
     SqliteExec(db, "COMMIT;");
     SqliteExec(db, "DETACH DATABASE src;");
   } catch (...) {

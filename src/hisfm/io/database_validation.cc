@@ -115,15 +115,33 @@ class ProblemList {
   std::vector<DatabaseProblem> problems_;
 };
 
-// Runs `scan` and turns an SQLite failure into a problem of the table.
+// Runs `scan` and turns an SQLite failure into a problem of the table;
+// false after a failure.
 template <typename Scan>
-void Guarded(sqlite3* db, const std::string& table, ProblemList* out,
+bool Guarded(sqlite3* db, const std::string& table, ProblemList* out,
              Scan&& scan) {
   try {
     scan();
+    return true;
   } catch (const Error&) {
     out->Add(table, "", StrCat("cannot be read: ", DescribeSqliteError(db)));
+    return false;
   }
+}
+
+constexpr char kCorruptRow[] =
+    "the file is corrupt (a row is not found by its id, or rows are out of "
+    "order)";
+
+// True, after reporting the file as corrupt, unless `rowid` follows
+// `*previous` (a scan in row-id order).
+bool OutOfOrder(int64_t rowid, int64_t* previous, bool* first,
+                const char* table, ProblemList* out) {
+  const bool out_of_order = !*first && rowid <= *previous;
+  *first = false;
+  *previous = rowid;
+  if (out_of_order) out->Add(table, "", kCorruptRow);
+  return out_of_order;
 }
 
 std::string RowIdMismatch(const char* column) {
@@ -138,12 +156,17 @@ std::string RowIdMismatch(const char* column) {
 void CheckCameras(sqlite3* db, ProblemList* out,
                   std::unordered_set<int64_t>* camera_ids) {
   const char* kTable = "cameras";
+  // prior_focal_length is not checked, but read: readers need the column.
   SqliteStatement stmt(db,
                        "SELECT rowid, camera_id, model, width, height, "
-                       "params FROM cameras ORDER BY rowid");
+                       "params, prior_focal_length FROM cameras ORDER BY "
+                       "rowid");
   sqlite3_stmt* s = stmt.get();
+  int64_t previous = 0;
+  bool first = true;
   while (!out->Full() && stmt.Step()) {
     const int64_t rowid = sqlite3_column_int64(s, 0);
+    if (OutOfOrder(rowid, &previous, &first, kTable, out)) break;
     if (!IsInteger(s, 1) || sqlite3_column_int64(s, 1) != rowid) {
       out->Add(kTable, StrCat("camera ", ValueText(s, 1)),
                RowIdMismatch("camera_id"));
@@ -209,7 +232,9 @@ void CheckCameras(sqlite3* db, ProblemList* out,
 // ---------------------------------------------------------------------------
 // images
 
-void CheckImages(sqlite3* db, const std::unordered_set<int64_t>& camera_ids,
+// `camera_ids` null: the cameras table could not be read, references to it
+// are not checked.
+void CheckImages(sqlite3* db, const std::unordered_set<int64_t>* camera_ids,
                  ProblemList* out, KeypointCounts* images) {
   const char* kTable = "images";
   SqliteStatement stmt(db,
@@ -217,8 +242,11 @@ void CheckImages(sqlite3* db, const std::unordered_set<int64_t>& camera_ids,
                        "ORDER BY rowid");
   sqlite3_stmt* s = stmt.get();
   std::unordered_map<std::string, int64_t> names;
+  int64_t previous = 0;
+  bool first = true;
   while (!out->Full() && stmt.Step()) {
     const int64_t rowid = sqlite3_column_int64(s, 0);
+    if (OutOfOrder(rowid, &previous, &first, kTable, out)) break;
     if (!IsInteger(s, 1) || sqlite3_column_int64(s, 1) != rowid) {
       out->Add(kTable, StrCat("image ", ValueText(s, 1)),
                RowIdMismatch("image_id"));
@@ -253,7 +281,8 @@ void CheckImages(sqlite3* db, const std::unordered_set<int64_t>& camera_ids,
                         it->second, " (names must be unique)"));
       }
     }
-    if (!IsInteger(s, 3) || camera_ids.count(sqlite3_column_int64(s, 3)) == 0) {
+    if (camera_ids && (!IsInteger(s, 3) ||
+                       camera_ids->count(sqlite3_column_int64(s, 3)) == 0)) {
       out->Add(kTable, id,
                StrCat("refers to camera ", ValueText(s, 3),
                       ", which is not in the cameras table"));
@@ -310,8 +339,11 @@ void CheckKeypoints(sqlite3* db, ProblemList* out, KeypointCounts* images) {
   // Read only once its size is known to match.
   SqliteStatement data(db, "SELECT data FROM keypoints WHERE rowid = ?");
   sqlite3_stmt* s = stmt.get();
+  int64_t previous = 0;
+  bool first = true;
   while (!out->Full() && stmt.Step()) {
     const int64_t rowid = sqlite3_column_int64(s, 0);
+    if (OutOfOrder(rowid, &previous, &first, kTable, out)) break;
     if (!IsInteger(s, 1) || sqlite3_column_int64(s, 1) != rowid) {
       out->Add(kTable, StrCat("image ", ValueText(s, 1)),
                RowIdMismatch("image_id"));
@@ -333,10 +365,11 @@ void CheckKeypoints(sqlite3* db, ProblemList* out, KeypointCounts* images) {
     if (rows > 0) {
       data.Reset();
       sqlite3_bind_int64(data.get(), 1, rowid);
-      if (!data.Step()) continue;
-      const void* blob = sqlite3_column_blob(data.get(), 0);
-      if (sqlite3_column_bytes(data.get(), 0) != rows * cols * 4 || !blob) {
-        continue;  // Changed under us: not a COLMAP database either.
+      const void* blob = data.Step() ? sqlite3_column_blob(data.get(), 0)
+                                     : nullptr;
+      if (!blob || sqlite3_column_bytes(data.get(), 0) != rows * cols * 4) {
+        out->Add(kTable, id, kCorruptRow);
+        continue;
       }
       const int64_t bad = FirstNonFiniteFloat(blob, rows * cols);
       if (bad >= 0) {
@@ -359,8 +392,11 @@ void CheckDescriptors(sqlite3* db, const KeypointCounts& images,
                        "SELECT rowid, image_id, rows, cols, typeof(data), "
                        "length(data) FROM descriptors ORDER BY rowid");
   sqlite3_stmt* s = stmt.get();
+  int64_t previous = 0;
+  bool first = true;
   while (!out->Full() && stmt.Step()) {
     const int64_t rowid = sqlite3_column_int64(s, 0);
+    if (OutOfOrder(rowid, &previous, &first, kTable, out)) break;
     if (!IsInteger(s, 1) || sqlite3_column_int64(s, 1) != rowid) {
       out->Add(kTable, StrCat("image ", ValueText(s, 1)),
                RowIdMismatch("image_id"));
@@ -577,7 +613,13 @@ void CheckPairTable(const std::string& path, sqlite3* db,
         sqlite3_bind_int64(stmt->get(), 1, chunk_begin(c));
         sqlite3_bind_int64(stmt->get(), 2,
                            c + 1 == num_chunks ? hi : chunk_begin(c + 1) - 1);
+        int64_t previous = 0;
+        bool first = true;
         while (!found.Full() && stmt->Step()) {
+          if (OutOfOrder(sqlite3_column_int64(stmt->get(), 0), &previous,
+                         &first, table.name, &found)) {
+            break;
+          }
           CheckPairRow(stmt->get(), table, images, &found);
         }
         stmt->Reset();
@@ -665,13 +707,21 @@ std::vector<DatabaseProblem> ValidateDatabase(
   {
     // One snapshot for the tables read on this connection.
     SqliteExec(db, "BEGIN;");
-    if (keyed("cameras", "camera_id")) {
-      Guarded(db, "cameras", &out,
-              [&] { CheckCameras(db, &out, &camera_ids); });
-    }
-    if (keyed("images", "image_id")) {
-      Guarded(db, "images", &out,
-              [&] { CheckImages(db, camera_ids, &out, &images); });
+    const bool cameras_read =
+        keyed("cameras", "camera_id") &&
+        Guarded(db, "cameras", &out,
+                [&] { CheckCameras(db, &out, &camera_ids); });
+    const bool images_read =
+        keyed("images", "image_id") &&
+        Guarded(db, "images", &out, [&] {
+          CheckImages(db, cameras_read ? &camera_ids : nullptr, &out,
+                      &images);
+        });
+    if (!images_read) {
+      // Every other table refers to images: its problems would follow
+      // from this one.
+      sqlite3_exec(db, "COMMIT;", nullptr, nullptr, nullptr);
+      return std::move(out.problems());
     }
     if (keyed("keypoints", "image_id")) {
       Guarded(db, "keypoints", &out,

@@ -383,6 +383,10 @@ TEST_F(DatabaseValidationTest, TablesThatAreNotColmapsSchema) {
        "3;");
   ExpectOne(ValidateDatabase(path), "two_view_geometries", "",
             "pair_id is not the table's INTEGER PRIMARY KEY");
+  Restore();
+  ExpectOne(After("ALTER TABLE cameras DROP COLUMN prior_focal_length"),
+            "cameras", "",
+            "cannot be read: no such column: prior_focal_length");
 }
 
 TEST_F(DatabaseValidationTest, CorruptFileIsNamedAsSuch) {

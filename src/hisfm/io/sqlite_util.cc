@@ -17,8 +17,9 @@ SqliteStatement::~SqliteStatement() { sqlite3_finalize(stmt_); }
 bool SqliteStatement::Step() {
   const int rc = sqlite3_step(stmt_);
   if (rc == SQLITE_ROW) return true;
-  ThrowUnless(rc == SQLITE_DONE,
-              StrCat("database error: ", sqlite3_errmsg(db_), " in: ", sql_));
+  ThrowUnless(rc == SQLITE_DONE, StrCat("database error: ",
+                                        DescribeSqliteError(db_), " in: ",
+                                        sql_));
   return false;
 }
 
@@ -85,9 +86,8 @@ void SqliteExec(sqlite3* db, const std::string& sql) {
   char* message = nullptr;
   const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
   if (rc != SQLITE_OK) {
-    const std::string text = message ? message : "unknown error";
     sqlite3_free(message);
-    throw Error(StrCat("database error: ", text));
+    throw Error(StrCat("database error: ", DescribeSqliteError(db)));
   }
 }
 
