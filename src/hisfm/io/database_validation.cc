@@ -9,7 +9,6 @@
 #include <initializer_list>
 #include <limits>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <unordered_map>
 #include <unordered_set>
@@ -36,7 +35,9 @@ void DatabaseValidationOptions::Check() const {
 
 namespace {
 
-// Keypoint counts of the images (the key set is the images table).
+// Keypoint counts of the images (the key set is the images table), or one
+// of these: no keypoints row; a row with a problem, or a table that could
+// not be read (the count is unknown and not compared with anything).
 constexpr int64_t kNoKeypointRow = -2;
 constexpr int64_t kBadKeypointRow = -1;
 using KeypointCounts = std::unordered_map<int64_t, int64_t>;
@@ -62,6 +63,10 @@ std::string ValueText(sqlite3_stmt* stmt, int col) {
           reinterpret_cast<const char*>(sqlite3_column_text(stmt, col));
       std::string s = text ? text : "";
       if (s.size() > 40) s = s.substr(0, 37) + "...";
+      // A problem is one line.
+      for (char& c : s) {
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+      }
       return "'" + s + "'";
     }
   }
@@ -71,9 +76,8 @@ bool IsInteger(sqlite3_stmt* stmt, int col) {
   return sqlite3_column_type(stmt, col) == SQLITE_INTEGER;
 }
 
-// "rows x cols = R x C values of B bytes (N bytes)" unless `bytes` is exactly
-// rows * cols * element_bytes; computed without overflow for any 64-bit
-// rows and cols >= 0.
+// True if `bytes` is exactly rows * cols * element_bytes (computed without
+// overflow for any 64-bit values).
 bool SizeMatches(int64_t rows, int64_t cols, int element_bytes, int64_t bytes) {
   if (rows < 0 || cols < 0 || bytes < 0) return false;
   const __int128 expected =
@@ -98,7 +102,7 @@ int64_t FirstNonFiniteFloat(const void* data, int64_t n) {
   return -1;
 }
 
-// Collects problems up to a limit (0: none).
+// Collects problems up to a limit (0: no limit).
 class ProblemList {
  public:
   explicit ProblemList(size_t limit) : limit_(limit) {}
@@ -723,9 +727,15 @@ std::vector<DatabaseProblem> ValidateDatabase(
       sqlite3_exec(db, "COMMIT;", nullptr, nullptr, nullptr);
       return std::move(out.problems());
     }
-    if (keyed("keypoints", "image_id")) {
-      Guarded(db, "keypoints", &out,
-              [&] { CheckKeypoints(db, &out, &images); });
+    const bool keypoints_read =
+        keyed("keypoints", "image_id") &&
+        Guarded(db, "keypoints", &out,
+                [&] { CheckKeypoints(db, &out, &images); });
+    if (!keypoints_read) {
+      // Keypoint counts unknown: not compared with descriptors and matches.
+      for (auto& [image_id, count] : images) {
+        if (count == kNoKeypointRow) count = kBadKeypointRow;
+      }
     }
     if (HasTable(db, "descriptors") && keyed("descriptors", "image_id")) {
       Guarded(db, "descriptors", &out,

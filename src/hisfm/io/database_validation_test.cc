@@ -387,6 +387,10 @@ TEST_F(DatabaseValidationTest, TablesThatAreNotColmapsSchema) {
   ExpectOne(After("ALTER TABLE cameras DROP COLUMN prior_focal_length"),
             "cameras", "",
             "cannot be read: no such column: prior_focal_length");
+  // An unreadable table is named once, not once more for each reference.
+  Restore();
+  ExpectOne(After("ALTER TABLE keypoints DROP COLUMN cols"), "keypoints", "",
+            "cannot be read: no such column: cols");
 }
 
 TEST_F(DatabaseValidationTest, CorruptFileIsNamedAsSuch) {
