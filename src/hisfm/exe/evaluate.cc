@@ -11,7 +11,7 @@
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
 #include "hisfm/exe/option_flags.h"
-#include "hisfm/io/database.h"
+#include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/retriangulation.h"
 #include "hisfm/util/error.h"
@@ -103,13 +103,17 @@ int RunEvaluate(int argc, char** argv) {
     return code;
   }
   options.Check();
-  if (!output_path.empty()) CheckOutputFile(output_path);
+  const std::vector<std::string> model_paths = FindModels(model_path);
+  if (!output_path.empty()) {
+    std::vector<std::string> inputs = model_paths;
+    inputs.insert(inputs.end(), {reference_path, database_path});
+    CheckOutputFile(output_path, inputs);
+  }
   if (!database_path.empty()) {
-    { Database probe(database_path); }  // A one-line error before any work.
+    RequireValidDatabase(database_path);  // One line, before any work.
     CheckDirectoryExists(image_path, "image folder");
   }
 
-  const std::vector<std::string> model_paths = FindModels(model_path);
   std::vector<Reconstruction> models;
   for (const std::string& path : model_paths) models.push_back(ReadModel(path));
   const Reconstruction reference = ReadModel(reference_path);

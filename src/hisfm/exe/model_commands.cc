@@ -88,9 +88,20 @@ int RunModelConverter(int argc, char** argv) {
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
-  const Reconstruction model = ReadModel(input_path);
   CheckDirectoryExists(output_path, "output folder");
   for (char& c : output_type) c = static_cast<char>(std::toupper(c));
+  // The input stays as it is, and a model of the other format is not left
+  // beside the new one.
+  ThrowUnless(!IsSameOrInside(output_path, input_path),
+              StrCat("refusing to write the output into the input model "
+                     "folder ",
+                     input_path));
+  const std::string other = output_type == "BIN" ? "cameras.txt"
+                                                 : "cameras.bin";
+  ThrowUnless(!fs::exists(fs::path(output_path) / other),
+              StrCat("output folder ", output_path, " holds a model in the "
+                     "other format (", other, "): choose another folder"));
+  const Reconstruction model = ReadModel(input_path);
   if (output_type == "BIN") {
     WriteModelBinary(model, output_path);
   } else {
@@ -142,7 +153,7 @@ int RunModelExport(int argc, char** argv) {
   options.include_points = !no_points;
   options.include_cameras = !no_cameras;
   options.camera_color = ParseColor(camera_color);
-  CheckOutputFile(output_path);
+  CheckOutputFile(output_path, {input_path});
   const Reconstruction model = ReadModel(input_path);
   const PlyExportSummary summary =
       WriteModelPly(model, output_path, options);

@@ -239,7 +239,10 @@ int RunReportCommand(int argc, char** argv) {
     return code;
   }
   if (html_path.empty()) html_path = output_path + "/report.html";
-  CheckOutputFile(html_path);
+  std::vector<std::string> inputs = NumberedModelFolders(output_path);
+  inputs.insert(inputs.end(),
+                {output_path + "/hisfm_summary.json", reference_path});
+  CheckOutputFile(html_path, inputs);
   ReportInput input = ReadMapperReportInput(output_path);
   AddReference(reference_path, &input);
   WriteReport(input, html_path);

@@ -61,11 +61,11 @@ void AppendMatches(const MatchesView& v, std::vector<FeatureMatch>* out) {
 MatchesView MatchesOf(sqlite3_stmt* stmt, int rows_col, int data_col) {
   static_assert(sizeof(FeatureMatch) == 2 * sizeof(uint32_t),
                 "FeatureMatch must be two packed uint32");
-  const int rows = sqlite3_column_int(stmt, rows_col);
+  const sqlite3_int64 rows = sqlite3_column_int64(stmt, rows_col);
   const void* data = sqlite3_column_blob(stmt, data_col);
   const int bytes = sqlite3_column_bytes(stmt, data_col);
   // (Checks on hot paths build their message only when they fail.)
-  if (rows < 0 || (rows > 0 && !data) ||
+  if (rows < 0 || rows > bytes || (rows > 0 && !data) ||
       static_cast<size_t>(bytes) !=
           static_cast<size_t>(rows) * sizeof(FeatureMatch)) {
     throw Error("database error: corrupt match blob");
@@ -150,16 +150,25 @@ Database::Database(const std::string& path)
         "('cameras','images','keypoints','two_view_geometries')");
     if (stmt.Step()) num_tables = sqlite3_column_int(stmt.get(), 0);
   } catch (const Error&) {
-    if (sqlite3_errcode(connection.get()) == SQLITE_NOTADB) {
+    const int code = sqlite3_errcode(connection.get()) & 0xff;
+    if (code == SQLITE_NOTADB) {
       throw Error(StrCat("not a COLMAP database (not SQLite): ", path));
     }
     // E.g. a write-ahead log left by a writer, in a folder that is
     // read-only here: SQLite needs to create the log's index beside it.
+    // (Not for a corrupt or locked file: the hint would mislead.)
+    std::error_code ec;
+    const bool has_log =
+        std::filesystem::exists(path + "-wal", ec) ||
+        std::filesystem::exists(path + "-journal", ec);
+    const bool log_hint = has_log && code != SQLITE_CORRUPT &&
+                          code != SQLITE_BUSY && code != SQLITE_LOCKED;
     throw Error(StrCat("cannot read database ", path, ": ",
-                       sqlite3_errmsg(connection.get()),
-                       " (if a -wal or -journal file is beside it, open it "
-                       "once with sqlite3 or colmap where the folder is "
-                       "writable)"));
+                       DescribeSqliteError(connection.get()),
+                       log_hint ? " (a -wal or -journal file is beside it: "
+                                  "open it once with sqlite3 or colmap where "
+                                  "the folder is writable)"
+                                : ""));
   }
   ThrowUnless(num_tables == 4,
               StrCat("not a COLMAP database (missing cameras, images, "
@@ -546,13 +555,16 @@ Keypoints Database::ReadKeypoints(ImageId image_id) const {
                        "image_id = ?");
   sqlite3_bind_int64(stmt.get(), 1, image_id);
   if (!stmt.Step()) return Keypoints();
-  const int rows = sqlite3_column_int(stmt.get(), 0);
-  const int cols = sqlite3_column_int(stmt.get(), 1);
-  const std::vector<float> v = ReadBlob<float>(stmt.get(), 2);
-  ThrowUnless(cols >= 2 && v.size() == static_cast<size_t>(rows) * cols,
+  // Sizes are compared before anything is allocated for the rows.
+  const sqlite3_int64 rows = sqlite3_column_int64(stmt.get(), 0);
+  const sqlite3_int64 cols = sqlite3_column_int64(stmt.get(), 1);
+  const sqlite3_int64 bytes = sqlite3_column_bytes(stmt.get(), 2);
+  ThrowUnless(cols >= 2 && cols <= 6 && rows >= 0 && rows <= bytes &&
+                  rows * cols * 4 == bytes,
               StrCat("database error: corrupt keypoints of image ", image_id));
+  const std::vector<float> v = ReadBlob<float>(stmt.get(), 2);
   Keypoints kp(rows, 2);
-  for (int i = 0; i < rows; ++i) {
+  for (sqlite3_int64 i = 0; i < rows; ++i) {
     kp(i, 0) = v[i * cols];
     kp(i, 1) = v[i * cols + 1];
   }
@@ -565,12 +577,15 @@ Descriptors Database::ReadDescriptors(ImageId image_id) const {
       db_, "SELECT rows, cols, data FROM descriptors WHERE image_id = ?");
   sqlite3_bind_int64(stmt.get(), 1, image_id);
   if (!stmt.Step()) return Descriptors();
-  const int rows = sqlite3_column_int(stmt.get(), 0);
-  const int cols = sqlite3_column_int(stmt.get(), 1);
-  const std::vector<uint8_t> v = ReadBlob<uint8_t>(stmt.get(), 2);
-  ThrowUnless(v.size() == static_cast<size_t>(rows) * cols,
+  const sqlite3_int64 rows = sqlite3_column_int64(stmt.get(), 0);
+  const sqlite3_int64 cols = sqlite3_column_int64(stmt.get(), 1);
+  const sqlite3_int64 bytes = sqlite3_column_bytes(stmt.get(), 2);
+  ThrowUnless(rows >= 0 && cols >= 0 &&
+                  (rows == 0 ? bytes == 0
+                             : cols <= bytes / rows && rows * cols == bytes),
               StrCat("database error: corrupt descriptors of image ",
                      image_id));
+  const std::vector<uint8_t> v = ReadBlob<uint8_t>(stmt.get(), 2);
   Descriptors d(rows, cols);
   if (!v.empty()) std::memcpy(d.data(), v.data(), v.size());
   return d;
@@ -638,12 +653,32 @@ void WriteFilteredDatabase(const std::string& source_path,
     SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(ReadOnlyUri(source_path)) +
                        " AS src;");
     SqliteExec(db, "BEGIN;");
-    SqliteExec(db, "INSERT INTO cameras SELECT * FROM src.cameras;");
-    SqliteExec(db, "INSERT INTO images SELECT * FROM src.images;");
-    SqliteExec(db, "INSERT INTO keypoints SELECT * FROM src.keypoints;");
-    if (options.copy_descriptors) {
-      SqliteExec(db, "INSERT INTO descriptors SELECT * FROM src.descriptors;");
-    }
+    // Copies the columns of COLMAP 3.8's `table` that the source's has
+    // (other versions add or drop some, e.g. the images' priors), rows
+    // chosen by `where`. descriptors and matches may be absent from the
+    // source (COLMAP's mapper does not read them); the copy has COLMAP's
+    // whole schema.
+    auto copy = [&](const char* table, const std::string& where) {
+      std::string columns;
+      SqliteStatement info(
+          db, StrCat("SELECT name FROM pragma_table_info('", table,
+                     "', 'main') WHERE name IN (SELECT name FROM "
+                     "pragma_table_info('",
+                     table, "', 'src')) ORDER BY cid"));
+      while (info.Step()) {
+        // COLMAP's column names: plain identifiers, quoted all the same.
+        if (!columns.empty()) columns += ", ";
+        columns += StrCat("\"", sqlite3_column_text(info.get(), 0), "\"");
+      }
+      if (columns.empty()) return;  // No such table in the source.
+      SqliteExec(db, StrCat("INSERT INTO main.", table, " (", columns,
+                            ") SELECT ", columns, " FROM src.", table, where,
+                            ";"));
+    };
+    copy("cameras", "");
+    copy("images", "");
+    copy("keypoints", "");
+    if (options.copy_descriptors) copy("descriptors", "");
     SqliteExec(db, "CREATE TEMP TABLE keep_pairs (pair_id INTEGER PRIMARY KEY);");
     {
       SqliteStatement insert(db, "INSERT OR IGNORE INTO keep_pairs VALUES (?)");
@@ -654,15 +689,10 @@ void WriteFilteredDatabase(const std::string& source_path,
         insert.Reset();
       }
     }
-    SqliteExec(db,
-               "INSERT INTO two_view_geometries SELECT * FROM "
-               "src.two_view_geometries WHERE pair_id IN (SELECT pair_id FROM "
-               "keep_pairs);");
-    if (options.copy_matches) {
-      SqliteExec(db,
-                 "INSERT INTO matches SELECT * FROM src.matches WHERE pair_id "
-                 "IN (SELECT pair_id FROM keep_pairs);");
-    }
+    const std::string kept =
+        " WHERE pair_id IN (SELECT pair_id FROM keep_pairs)";
+    copy("two_view_geometries", kept);
+    if (options.copy_matches) copy("matches", kept);
     if (options.replace_inliers) {
       SqliteStatement update(db,
                              "UPDATE two_view_geometries SET rows = ?, cols = "

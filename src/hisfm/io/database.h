@@ -218,9 +218,11 @@ class Database {
 
 /// What WriteFilteredDatabase copies besides cameras, images and keypoints.
 struct FilteredDatabaseOptions {
-  /// Copy the descriptors table (COLMAP's mapper does not read it).
+  /// Copy the descriptors table (COLMAP's mapper does not read it), if the
+  /// source has one.
   bool copy_descriptors = false;
-  /// Copy raw matches of the kept pairs (the mapper does not read them).
+  /// Copy raw matches of the kept pairs (the mapper does not read them), if
+  /// the source has a matches table.
   bool copy_matches = false;
   /// If set, the kept pairs it holds get these inlier matches (oriented as
   /// stored: the smaller image id's keypoints first) instead of the

@@ -309,6 +309,34 @@ TEST(Database, FilteredCopyKeepsOnlyChosenPairsAndLeavesSourceIntact) {
   EXPECT_TRUE(out.ReadMatches(1, 3).empty());
 }
 
+// Other COLMAP versions add or drop columns (the images' priors) and tools
+// leave out the tables colmap mapper does not read: the filtered copy has
+// COLMAP 3.8's schema with the columns the source has.
+TEST(Database, FilteredCopyOfOtherSchemas) {
+  TempDir tmp;
+  const std::string src = tmp / "src.db";
+  WriteRandomDatabase(src, 4, 5);
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(src.c_str(), &db), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(db,
+                         "ALTER TABLE images ADD COLUMN extra TEXT; "
+                         "ALTER TABLE images DROP COLUMN prior_qw; "
+                         "DROP TABLE descriptors; DROP TABLE matches;",
+                         nullptr, nullptr, nullptr),
+            SQLITE_OK)
+      << sqlite3_errmsg(db);
+  sqlite3_close(db);
+  FilteredDatabaseOptions options;
+  options.copy_descriptors = true;
+  options.copy_matches = true;
+  WriteFilteredDatabase(src, tmp / "out.db", {ImagePair(1, 3)}, options);
+  Database out(tmp / "out.db");
+  EXPECT_EQ(out.ReadImages().size(), 4u);
+  EXPECT_EQ(out.ReadImages()[2].name, "img3.jpg");
+  EXPECT_EQ(out.ReadVerifiedPairs(1).size(), 1u);
+  EXPECT_EQ(out.ReadKeypoints(2).rows(), 22);
+}
+
 // COLMAP writes its databases in WAL mode. Reading one must leave nothing
 // beside it (no -shm or -wal file), so that read-only folders work and input
 // folders stay as they were; a pending log must still be read.

@@ -10,6 +10,7 @@
 #include <set>
 #include <unordered_set>
 
+#include "hisfm/io/model_validation.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 
@@ -22,21 +23,23 @@ struct CameraModelInfo {
   int model_id;
   const char* name;
   int num_params;
+  // The focal lengths are the first parameters: f, or fx and fy.
+  int num_focal_lengths;
 };
 
 // COLMAP 3.8, src/base/camera_models.h (CAMERA_MODEL_DEFINITIONS).
 constexpr std::array<CameraModelInfo, 11> kCameraModels = {{
-    {0, "SIMPLE_PINHOLE", 3},
-    {1, "PINHOLE", 4},
-    {2, "SIMPLE_RADIAL", 4},
-    {3, "RADIAL", 5},
-    {4, "OPENCV", 8},
-    {5, "OPENCV_FISHEYE", 8},
-    {6, "FULL_OPENCV", 12},
-    {7, "FOV", 5},
-    {8, "SIMPLE_RADIAL_FISHEYE", 4},
-    {9, "RADIAL_FISHEYE", 5},
-    {10, "THIN_PRISM_FISHEYE", 12},
+    {0, "SIMPLE_PINHOLE", 3, 1},
+    {1, "PINHOLE", 4, 2},
+    {2, "SIMPLE_RADIAL", 4, 1},
+    {3, "RADIAL", 5, 1},
+    {4, "OPENCV", 8, 2},
+    {5, "OPENCV_FISHEYE", 8, 2},
+    {6, "FULL_OPENCV", 12, 2},
+    {7, "FOV", 5, 2},
+    {8, "SIMPLE_RADIAL_FISHEYE", 4, 1},
+    {9, "RADIAL_FISHEYE", 5, 1},
+    {10, "THIN_PRISM_FISHEYE", 12, 2},
 }};
 
 std::string JoinPath(const std::string& folder, const std::string& file) {
@@ -481,6 +484,24 @@ void ReadPoints3DText(const std::string& path, Reconstruction* model) {
   }
 }
 
+Reconstruction ReadModelBinaryFiles(const std::string& path) {
+  CheckDirectoryExists(path, "COLMAP model");
+  Reconstruction model;
+  ReadCamerasBinary(JoinPath(path, "cameras.bin"), &model);
+  ReadImagesBinary(JoinPath(path, "images.bin"), &model);
+  ReadPoints3DBinary(JoinPath(path, "points3D.bin"), &model);
+  return model;
+}
+
+Reconstruction ReadModelTextFiles(const std::string& path) {
+  CheckDirectoryExists(path, "COLMAP model");
+  Reconstruction model;
+  ReadCamerasText(JoinPath(path, "cameras.txt"), &model);
+  ReadImagesText(JoinPath(path, "images.txt"), &model);
+  ReadPoints3DText(JoinPath(path, "points3D.txt"), &model);
+  return model;
+}
+
 void CheckOutputFolder(const std::string& path) {
   CheckDirectoryExists(path, "model output folder");
 }
@@ -534,6 +555,13 @@ int CameraModelNumParams(int model_id) {
   return -1;
 }
 
+int CameraModelNumFocalLengths(int model_id) {
+  for (const CameraModelInfo& info : kCameraModels) {
+    if (info.model_id == model_id) return info.num_focal_lengths;
+  }
+  return 0;
+}
+
 std::string CameraModelIdToName(int model_id) {
   for (const CameraModelInfo& info : kCameraModels) {
     if (info.model_id == model_id) return info.name;
@@ -551,11 +579,21 @@ int CameraModelNameToId(const std::string& name) {
 // ---------------------------------------------------------------------------
 // Reading.
 
-Reconstruction ReadModel(const std::string& path) {
+Reconstruction ReadModelUnvalidated(const std::string& path) {
   CheckDirectoryExists(path, "COLMAP model");
-  if (ExistsFile(JoinPath(path, "cameras.bin"))) return ReadModelBinary(path);
-  if (ExistsFile(JoinPath(path, "cameras.txt"))) return ReadModelText(path);
+  if (ExistsFile(JoinPath(path, "cameras.bin"))) {
+    return ReadModelBinaryFiles(path);
+  }
+  if (ExistsFile(JoinPath(path, "cameras.txt"))) {
+    return ReadModelTextFiles(path);
+  }
   throw Error(StrCat("no COLMAP model (cameras.bin or cameras.txt) in ", path));
+}
+
+Reconstruction ReadModel(const std::string& path) {
+  Reconstruction model = ReadModelUnvalidated(path);
+  RequireValidModel(model, path);
+  return model;
 }
 
 bool HasModel(const std::string& path) {
@@ -593,20 +631,14 @@ std::vector<Reconstruction> ReadNumberedModels(const std::string& folder) {
 }
 
 Reconstruction ReadModelBinary(const std::string& path) {
-  CheckDirectoryExists(path, "COLMAP model");
-  Reconstruction model;
-  ReadCamerasBinary(JoinPath(path, "cameras.bin"), &model);
-  ReadImagesBinary(JoinPath(path, "images.bin"), &model);
-  ReadPoints3DBinary(JoinPath(path, "points3D.bin"), &model);
+  Reconstruction model = ReadModelBinaryFiles(path);
+  RequireValidModel(model, path);
   return model;
 }
 
 Reconstruction ReadModelText(const std::string& path) {
-  CheckDirectoryExists(path, "COLMAP model");
-  Reconstruction model;
-  ReadCamerasText(JoinPath(path, "cameras.txt"), &model);
-  ReadImagesText(JoinPath(path, "images.txt"), &model);
-  ReadPoints3DText(JoinPath(path, "points3D.txt"), &model);
+  Reconstruction model = ReadModelTextFiles(path);
+  RequireValidModel(model, path);
   return model;
 }
 

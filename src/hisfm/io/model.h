@@ -108,6 +108,9 @@ struct Reconstruction {
 
 /// Number of parameters of a COLMAP camera model, or -1 if unknown.
 int CameraModelNumParams(int model_id);
+/// Number of focal lengths of a COLMAP camera model (1: f, 2: fx and fy;
+/// they are its first parameters), or 0 if unknown.
+int CameraModelNumFocalLengths(int model_id);
 /// COLMAP's name of a camera model ("SIMPLE_RADIAL"), or "" if unknown.
 std::string CameraModelIdToName(int model_id);
 /// Model id for a COLMAP model name, or -1 if unknown.
@@ -120,10 +123,16 @@ bool HasModel(const std::string& path);
 /// or `folder` cannot be read.
 std::vector<std::string> NumberedModelFolders(const std::string& folder);
 /// Reads a model folder, binary if cameras.bin is there, else text; throws
-/// hisfm::Error with a one-line message if it is missing or malformed.
+/// hisfm::Error with a one-line message if it is missing or malformed, or
+/// has a problem of hisfm/io/model_validation.h (the first one is named).
 Reconstruction ReadModel(const std::string& path);
+/// ReadModel of the binary files (cameras.bin, images.bin, points3D.bin).
 Reconstruction ReadModelBinary(const std::string& path);
+/// ReadModel of the text files (cameras.txt, images.txt, points3D.txt).
 Reconstruction ReadModelText(const std::string& path);
+/// ReadModel without the checks of model_validation.h (the file format is
+/// still checked): for listing a model's problems.
+Reconstruction ReadModelUnvalidated(const std::string& path);
 /// Reads the numbered models folder/0, folder/1, ... that colmap mapper
 /// writes, in that order, stopping at the first missing number; empty if
 /// there is none.

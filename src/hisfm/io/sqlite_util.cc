@@ -17,8 +17,9 @@ SqliteStatement::~SqliteStatement() { sqlite3_finalize(stmt_); }
 bool SqliteStatement::Step() {
   const int rc = sqlite3_step(stmt_);
   if (rc == SQLITE_ROW) return true;
-  ThrowUnless(rc == SQLITE_DONE,
-              StrCat("database error: ", sqlite3_errmsg(db_), " in: ", sql_));
+  ThrowUnless(rc == SQLITE_DONE, StrCat("database error: ",
+                                        DescribeSqliteError(db_), " in: ",
+                                        sql_));
   return false;
 }
 
@@ -64,13 +65,29 @@ SqliteConnection OpenReadOnlyConnection(const std::string& path,
   return connection;
 }
 
+std::string DescribeSqliteError(sqlite3* db) {
+  const std::string message = sqlite3_errmsg(db);
+  switch (sqlite3_errcode(db) & 0xff) {
+    case SQLITE_CORRUPT:
+      return "the file is corrupt (SQLite: " + message + ")";
+    case SQLITE_NOTADB:
+      return "the file is not an SQLite database (SQLite: " + message + ")";
+    case SQLITE_BUSY:
+    case SQLITE_LOCKED:
+      return "it is locked by another program that is writing it, e.g. "
+             "colmap (SQLite: " +
+             message + "); try again when that program has finished";
+    default:
+      return message;
+  }
+}
+
 void SqliteExec(sqlite3* db, const std::string& sql) {
   char* message = nullptr;
   const int rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &message);
   if (rc != SQLITE_OK) {
-    const std::string text = message ? message : "unknown error";
     sqlite3_free(message);
-    throw Error(StrCat("database error: ", text));
+    throw Error(StrCat("database error: ", DescribeSqliteError(db)));
   }
 }
 

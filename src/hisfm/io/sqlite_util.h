@@ -52,6 +52,11 @@ std::string ReadOnlyUri(const std::string& path);
 SqliteConnection OpenReadOnlyConnection(const std::string& path,
                                         std::string* error = nullptr);
 
+/// The last error of a connection as a user reads it: SQLite's message,
+/// preceded by what it means for the common cases ("the file is corrupt",
+/// "locked by another program").
+std::string DescribeSqliteError(sqlite3* db);
+
 /// Executes SQL without results; throws Error naming `context` on failure.
 void SqliteExec(sqlite3* db, const std::string& sql);
 

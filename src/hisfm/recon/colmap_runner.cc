@@ -1,20 +1,17 @@
 #include "hisfm/recon/colmap_runner.h"
 
 #include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
 
+#include "hisfm/util/child_process.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
-
-extern char** environ;
 
 namespace hisfm {
 
@@ -24,52 +21,15 @@ void ColmapRunnerOptions::Check() const {
 
 namespace {
 
-// Spawns `argv` with stdout/stderr to `log_fd` and the environment `env`;
-// returns the exit status, or -1 if it could not start (errno in
-// *spawn_error).
-int Spawn(const std::vector<std::string>& argv,
-          const std::vector<std::string>& env, int log_fd, int* spawn_error) {
-  std::vector<char*> cargs;
-  for (const std::string& a : argv) cargs.push_back(const_cast<char*>(a.c_str()));
-  cargs.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, log_fd, STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, log_fd, STDERR_FILENO);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null",
-                                   O_RDONLY, 0);
-  std::vector<char*> cenv;
-  for (const std::string& e : env) cenv.push_back(const_cast<char*>(e.c_str()));
-  cenv.push_back(nullptr);
-  pid_t pid = 0;
-  const int rc = posix_spawnp(&pid, cargs[0], &actions, nullptr, cargs.data(),
-                              cenv.data());
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
-    *spawn_error = rc;
-    return -1;
-  }
-  SetInterruptibleChild(pid);
-  int status = 0;
-  pid_t waited = 0;
-  while ((waited = waitpid(pid, &status, 0)) < 0 && errno == EINTR) {
-  }
-  SetInterruptibleChild(0);
-  if (waited < 0) return -1;
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-}
-
 // This process's environment, plus GLOG_log_dir set to the folder of
 // `log_path` (unless set already): colmap's own log files (glog) then go
 // next to the log hisfm keeps, not into /tmp, where every run would leave
 // two.
 std::vector<std::string> ColmapEnvironment(const std::string& log_path) {
-  std::vector<std::string> env;
+  std::vector<std::string> env = CurrentEnvironment();
   bool has_log_dir = false;
-  for (char** e = environ; *e != nullptr; ++e) {
-    env.emplace_back(*e);
-    has_log_dir |= env.back().rfind("GLOG_log_dir=", 0) == 0;
+  for (const std::string& e : env) {
+    has_log_dir |= e.rfind("GLOG_log_dir=", 0) == 0;
   }
   if (!has_log_dir) {
     const std::string dir =
@@ -96,8 +56,9 @@ std::string CheckColmapAvailable(const ColmapRunnerOptions& options) {
   const int fd = mkstemp(path);
   ThrowUnless(fd >= 0, "cannot create a temporary file in /tmp");
   int spawn_error = 0;
-  const int status = Spawn({options.colmap_path, "help"},
-                           ColmapEnvironment(path), fd, &spawn_error);
+  const int status = RunChildProcess({options.colmap_path, "help"},
+                                     ColmapEnvironment(path), fd,
+                                     &spawn_error);
   close(fd);
   const std::string head = TailOfFile(path, 1000);
   unlink(path);
@@ -131,7 +92,8 @@ double RunColmap(const ColmapRunnerOptions& options,
   Timer timer;
   int spawn_error = 0;
   ThrowIfInterrupted();
-  const int status = Spawn(argv, ColmapEnvironment(log_path), fd, &spawn_error);
+  const int status =
+      RunChildProcess(argv, ColmapEnvironment(log_path), fd, &spawn_error);
   close(fd);
   // A colmap stopped by Ctrl-C or SIGTERM is an interruption, not a failure.
   ThrowIfInterrupted();

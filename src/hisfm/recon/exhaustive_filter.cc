@@ -5,6 +5,7 @@
 
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/io/database.h"
+#include "hisfm/io/database_validation.h"
 #include "hisfm/recon/input_check.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
@@ -30,6 +31,7 @@ nlohmann::json FilterPairsExhaustively(const std::string& database_path,
               StrCat("output database already exists: ",
                      output_database_path));
   Timer total;
+  RequireValidDatabase(database_path);
   const Database database(database_path);
   const ViewGraph graph =
       ViewGraph::FromDatabase(database, options.min_num_matches);

@@ -6,6 +6,7 @@
 #include <set>
 
 #include "hisfm/io/database.h"
+#include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
 #include "hisfm/recon/input_check.h"
@@ -452,6 +453,7 @@ nlohmann::json ComputeViewGraphJson(const std::string& database_path,
                                     const std::string& image_path,
                                     const HierarchicalMapperOptions& options) {
   options.Check();
+  RequireValidDatabase(database_path);
   LoadedInput in = LoadAndBuildHierarchy(database_path, image_path, options);
   nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
   out["summary"] = HierarchySummary(in);
@@ -487,8 +489,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     ThrowUnless(!IsSameOrInside(input, work),
                 StrCat("--work_path ", work, " holds the input ", input));
   }
+  // Bad input stops here, in one line, before any colmap call.
+  RequireValidDatabase(paths.database_path);
   CheckColmapAvailable(options.colmap);
-  { Database probe(paths.database_path); }  // Fails early on a non-COLMAP file.
   // Work folders of earlier versions hold view_graph.json, written first.
   PrepareWorkDirectory(work, "view_graph.json");
 

@@ -10,9 +10,11 @@
 #include <set>
 #include <sstream>
 
+#include "hisfm/report/report_json_check.h"
 #include "hisfm/report/top_view.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
+#include "hisfm/util/logging.h"
 
 namespace fs = std::filesystem;
 
@@ -1050,6 +1052,9 @@ ReportInput ReadMapperReportInput(const std::string& output_path) {
   } catch (const Json::exception& e) {
     throw Error(StrCat("cannot parse ", summary_path, ": ", e.what()));
   }
+  const std::string problem = FindSummaryJsonProblem(in.summary);
+  ThrowUnless(problem.empty(),
+              StrCat("mapper summary ", summary_path, ": ", problem));
   std::string model_dir = output_path + "/0";
   if (in.summary.contains("models") && !in.summary["models"].empty()) {
     model_dir = output_path + "/" + JStr(in.summary["models"][0], "path");
@@ -1058,10 +1063,21 @@ ReportInput ReadMapperReportInput(const std::string& output_path) {
     in.model = ReadModel(model_dir);
   }
   const std::string work = JStr(in.summary, "work_path");
-  if (!work.empty() && fs::exists(work + "/view_graph.json")) {
+  const std::string hierarchy_path = work + "/view_graph.json";
+  if (!work.empty() && fs::exists(hierarchy_path)) {
+    // An optional part: a broken one is left out, with a warning.
     try {
-      in.hierarchy = Json::parse(ReadTextFile(work + "/view_graph.json"));
-    } catch (const Json::exception&) {
+      in.hierarchy = Json::parse(ReadTextFile(hierarchy_path));
+      const std::string hierarchy_problem =
+          FindHierarchyJsonProblem(in.hierarchy);
+      if (!hierarchy_problem.empty()) {
+        HISFM_LOG_WARN("view graph left out of the report: {}: {}",
+                       hierarchy_path, hierarchy_problem);
+        in.hierarchy = nullptr;
+      }
+    } catch (const Json::exception& e) {
+      HISFM_LOG_WARN("view graph left out of the report: cannot parse {}: {}",
+                     hierarchy_path, e.what());
       in.hierarchy = nullptr;
     }
   }

@@ -141,8 +141,12 @@ void BuildObjectScene(const SynthOptions& options, SynthSceneType type,
     const double height = kRingHeight + rng.Uniform(-0.3, 0.3);
     const Eigen::Vector3d center(radius * std::cos(phi),
                                  radius * std::sin(phi), height);
-    const Eigen::Vector3d target(rng.Normal(0.05), rng.Normal(0.05),
-                                 kRingLookAtHeight + rng.Normal(0.05));
+    // One draw per statement: the order of a call's arguments is the
+    // compiler's (last first keeps the scenes of earlier builds).
+    const double target_z = kRingLookAtHeight + rng.Normal(0.05);
+    const double target_y = rng.Normal(0.05);
+    const double target_x = rng.Normal(0.05);
+    const Eigen::Vector3d target(target_x, target_y, target_z);
     layout->cams_from_world.push_back(LookAt(center, target, rng.Normal(2.0)));
   }
 
@@ -186,8 +190,8 @@ void BuildStreetScene(const SynthOptions& options, SynthSceneType type,
   for (int b = 0; b < num_blocks; ++b) {
     std::vector<Eigen::Vector2d> pattern(per_house);  // (u, z) in a house
     for (Eigen::Vector2d& uz : pattern) {
-      uz = Eigen::Vector2d(rng.Uniform(0.05, kHouseWidth - 0.05),
-                           rng.Uniform(0.1, kFacadeHeight - 0.1));
+      const double z = rng.Uniform(0.1, kFacadeHeight - 0.1);
+      uz = Eigen::Vector2d(rng.Uniform(0.05, kHouseWidth - 0.05), z);
     }
     const uint32_t base = repeated ? appearance.Reserve(per_house) : 0;
     const int first_house = b * block_houses;
@@ -228,8 +232,8 @@ void BuildStreetScene(const SynthOptions& options, SynthSceneType type,
     }
     for (int i = 0; i < ground_per_house; ++i) {
       ScenePoint p;
-      p.xyz = Eigen::Vector3d(x0 + rng.Uniform(0.0, kHouseWidth),
-                              rng.Uniform(kGroundYMin, kFacadeY - 0.1), 0.0);
+      const double y = rng.Uniform(kGroundYMin, kFacadeY - 0.1);
+      p.xyz = Eigen::Vector3d(x0 + rng.Uniform(0.0, kHouseWidth), y, 0.0);
       p.normal = Eigen::Vector3d::UnitZ();
       p.tangent = Eigen::Vector3d::UnitX();
       p.appearance = appearance.Next();
@@ -239,9 +243,10 @@ void BuildStreetScene(const SynthOptions& options, SynthSceneType type,
 
   // A line of cameras along the street, looking at the facades.
   for (int i = 0; i < n; ++i) {
+    const double z = kStreetCameraHeight + rng.Uniform(-0.1, 0.1);
+    const double y = rng.Uniform(-0.3, 0.3);
     const Eigen::Vector3d center(i * kCameraSpacing + rng.Uniform(-0.15, 0.15),
-                                 rng.Uniform(-0.3, 0.3),
-                                 kStreetCameraHeight + rng.Uniform(-0.1, 0.1));
+                                 y, z);
     const double yaw = rng.Normal(5.0) * kDegToRad;
     const double pitch = (5.0 + rng.Normal(2.0)) * kDegToRad;
     const Eigen::Vector3d direction(std::sin(yaw), std::cos(yaw),

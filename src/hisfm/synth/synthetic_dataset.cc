@@ -1,6 +1,7 @@
 #include "hisfm/synth/synthetic_dataset.h"
 
-#include <sys/wait.h>
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -11,10 +12,10 @@
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
 #include "hisfm/io/model.h"
+#include "hisfm/util/child_process.h"
 #include "hisfm/util/parallel.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/interrupt.h"
-#include "hisfm/util/string_util.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
@@ -109,25 +110,40 @@ void WriteSceneTables(const SyntheticScene& scene, DatabaseWriter* writer) {
 void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
                       const std::string& match_list_path) {
   const std::string log_path = (fs::path(folder) / "matches_importer.log").string();
-  const std::string command = StrCat(
-      ShellQuote(options.colmap_path), " matches_importer --database_path ",
-      ShellQuote((fs::path(folder) / "database.db").string()),
-      " --match_list_path ", ShellQuote(match_list_path),
-      " --match_type raw --SiftMatching.use_gpu 0",
-      " --SiftMatching.min_num_inliers ", options.min_num_inliers,
-      " --SiftMatching.max_error ", options.max_error,
-      " --SiftMatching.min_inlier_ratio ", options.min_inlier_ratio,
-      " --SiftMatching.num_threads ", NumWorkerThreads(options.num_threads),
-      " > ", ShellQuote(log_path), " 2>&1");
+  const std::vector<std::string> argv = {
+      options.colmap_path,
+      "matches_importer",
+      "--database_path",
+      (fs::path(folder) / "database.db").string(),
+      "--match_list_path",
+      match_list_path,
+      "--match_type",
+      "raw",
+      "--SiftMatching.use_gpu",
+      "0",
+      "--SiftMatching.min_num_inliers",
+      StrCat(options.min_num_inliers),
+      "--SiftMatching.max_error",
+      StrCat(options.max_error),
+      "--SiftMatching.min_inlier_ratio",
+      StrCat(options.min_inlier_ratio),
+      "--SiftMatching.num_threads",
+      StrCat(NumWorkerThreads(options.num_threads))};
+  std::string command;
+  for (const std::string& a : argv) command += (command.empty() ? "" : " ") + a;
   HISFM_LOG_INFO("Running {}", command);
-  const int status = std::system(command.c_str());
-  if (status == 0) return;
-  ThrowIfInterrupted(status);
+  const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  ThrowUnless(fd >= 0, StrCat("cannot write log file ", log_path));
+  int start_error = 0;
+  // colmap dies with hisfm, however hisfm ends.
+  const int code = RunChildProcess(argv, CurrentEnvironment(), fd, &start_error);
+  close(fd);
+  if (code == 0) return;
+  ThrowIfInterrupted();
+  ThrowUnless(code >= 0, StrCat("colmap not found: cannot run '",
+                                options.colmap_path, "'"));
   // The folder is temporary and removed on failure: the log's last line
   // goes into the message.
-  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  ThrowUnless(code != 127, StrCat("colmap not found: cannot run '",
-                                  options.colmap_path, "'"));
   throw Error(StrCat("colmap matches_importer failed (exit ", code,
                      "): ", TailOfFile(log_path, 1)));
 }

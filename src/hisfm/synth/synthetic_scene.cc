@@ -240,8 +240,11 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
                  rng.Uniform()));
   for (size_t k = 0; k < num_distractors; ++k) {
     SynthFeature feature;
-    feature.xy = Eigen::Vector2f(static_cast<float>(rng.Uniform(1.0, w - 1.0)),
-                                 static_cast<float>(rng.Uniform(1.0, h - 1.0)));
+    // One draw per statement: the order of a call's arguments is the
+    // compiler's (y first keeps the scenes of earlier builds).
+    const double y = rng.Uniform(1.0, h - 1.0);
+    const double x = rng.Uniform(1.0, w - 1.0);
+    feature.xy = Eigen::Vector2f(static_cast<float>(x), static_cast<float>(y));
     image->features.push_back(feature);
   }
   // Fisher-Yates shuffle: keypoint order carries no information.

@@ -122,7 +122,7 @@ void AtomicDirectory::Commit() {
   committed_ = true;
 }
 
-void CheckOutputFile(const std::string& path) {
+void CheckReplaceableFile(const std::string& path) {
   std::error_code ec;
   ThrowUnless(!fs::is_directory(path, ec),
               StrCat("output is a folder, not a file: ", path));
@@ -137,8 +137,38 @@ void CheckOutputFile(const std::string& path) {
   }
 }
 
+void CheckOutputFile(const std::string& path,
+                     const std::vector<std::string>& inputs) {
+  CheckReplaceableFile(path);
+  const fs::path normal = NormalizePath(path);
+  const std::string name = normal.filename().string();
+  std::error_code ec;
+  const bool model_file_name =
+      name == "cameras.bin" || name == "images.bin" ||
+      name == "points3D.bin" || name == "cameras.txt" ||
+      name == "images.txt" || name == "points3D.txt";
+  const fs::path folder = normal.parent_path();
+  ThrowUnless(!model_file_name ||
+                  !(fs::is_regular_file(folder / "cameras.bin", ec) ||
+                    fs::is_regular_file(folder / "cameras.txt", ec)),
+              StrCat("refusing to write an output over the file ", name,
+                     " of the COLMAP model in ", folder.string()));
+  for (const std::string& input : inputs) {
+    if (input.empty()) continue;
+    const bool same_file = fs::exists(path, ec) && fs::exists(input, ec) &&
+                           fs::equivalent(path, input, ec);
+    ThrowUnless(!same_file && !IsSameOrInside(path, input),
+                fs::is_directory(input, ec)
+                    ? StrCat("refusing to write an output inside the input "
+                             "folder ",
+                             input, ": ", path)
+                    : StrCat("refusing to overwrite the input ", input,
+                             " with an output"));
+  }
+}
+
 void WriteFileAtomically(const std::string& path, const std::string& contents) {
-  CheckOutputFile(path);
+  CheckReplaceableFile(path);
   std::error_code ec;
   const std::string temp = path + ".tmp-" + RandomSuffix();
   {

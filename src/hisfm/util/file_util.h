@@ -3,6 +3,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace hisfm {
 
@@ -57,11 +58,23 @@ class AtomicDirectory {
 
 /// Throws Error if `path` is a folder or a SQLite database: no file output
 /// of HiSfM replaces one, so such a path is a mistake (an input given as the
-/// output). Commands call it before their work, WriteFileAtomically again.
-void CheckOutputFile(const std::string& path);
+/// output). WriteFileAtomically checks it.
+void CheckReplaceableFile(const std::string& path);
+
+/// Throws Error unless a command may write its output file at `path`:
+/// CheckReplaceableFile, and `path` is neither a file of a COLMAP model
+/// (cameras, images or points3D .bin or .txt in a folder holding
+/// cameras.bin or cameras.txt) nor one of `inputs` (the command's input
+/// files, also through another name or a hard link) nor inside one of them
+/// (its input folders, e.g. model folders). Commands call it before their
+/// work; an existing file that passes is an earlier output, which
+/// WriteFileAtomically replaces in one step.
+void CheckOutputFile(const std::string& path,
+                     const std::vector<std::string>& inputs = {});
 
 /// Writes `contents` to `path` through a temporary file and a rename, after
-/// CheckOutputFile.
+/// CheckReplaceableFile: readers of `path` see the old file or the new one,
+/// never a part.
 void WriteFileAtomically(const std::string& path, const std::string& contents);
 
 /// Last `max_lines` non-empty lines of a text file, joined by " | " (empty if

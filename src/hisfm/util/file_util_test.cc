@@ -97,5 +97,37 @@ TEST(FileUtil, WriteFileAtomicallyRefusesFoldersAndDatabases) {
   EXPECT_EQ(NumEntries(tmp.path()), 3u);
 }
 
+TEST(FileUtil, CheckOutputFileProtectsModelsAndInputs) {
+  TempDir tmp("hisfm-file-util");
+  fs::create_directories(tmp / "model");
+  for (const char* file : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    std::ofstream(tmp / ("model/" + std::string(file))) << "model\n";
+  }
+  std::ofstream(tmp / "input.json") << "{}\n";
+  // Files of a model, however named.
+  EXPECT_THROW(CheckOutputFile(tmp / "model/images.bin"), Error);
+  EXPECT_THROW(CheckOutputFile(tmp / "model/../model/points3D.bin"), Error);
+  EXPECT_THROW(CheckOutputFile(tmp / "model/points3D.txt"), Error)
+      << "would sit beside the binary model";
+  fs::create_symlink(tmp / "model/cameras.bin", tmp / "link.bin");
+  EXPECT_THROW(CheckOutputFile(tmp / "link.bin"), Error);
+  // The same names outside a model folder are ordinary outputs.
+  EXPECT_NO_THROW(CheckOutputFile(tmp / "images.bin"));
+  // Inputs, their folders, and hard links to them.
+  EXPECT_THROW(CheckOutputFile(tmp / "model/eval.json", {tmp / "model"}),
+               Error);
+  EXPECT_NO_THROW(CheckOutputFile(tmp / "model/eval.json"));
+  EXPECT_THROW(CheckOutputFile(tmp / "input.json", {tmp / "input.json"}),
+               Error);
+  fs::create_hard_link(tmp / "input.json", tmp / "same.json");
+  EXPECT_THROW(CheckOutputFile(tmp / "same.json", {tmp / "input.json"}),
+               Error);
+  EXPECT_NO_THROW(
+      CheckOutputFile(tmp / "other.json", {tmp / "input.json", "", tmp / "model"}));
+  for (const char* file : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    EXPECT_EQ(ReadTextFile(tmp / ("model/" + std::string(file))), "model\n");
+  }
+}
+
 }  // namespace
 }  // namespace hisfm

@@ -25,7 +25,7 @@ extern "C" void OnInterrupt(int signal) {
   if (!g_signal.compare_exchange_strong(expected, signal)) {
     ::signal(signal, SIG_DFL);
     raise(signal);
-  } else if (const pid_t child = g_child.load(); child > 0) {
+  } else if (const pid_t child = g_child.load(); child != 0) {
     kill(child, signal);
   }
   errno = saved_errno;
@@ -76,7 +76,7 @@ void ThrowIfInterrupted(int wait_status) {
 void SetInterruptibleChild(pid_t pid) {
   g_child.store(pid);
   const int signal = g_signal.load();
-  if (pid > 0 && signal != 0) kill(pid, signal);
+  if (pid != 0 && signal != 0) kill(pid, signal);
 }
 
 }  // namespace hisfm

@@ -45,9 +45,9 @@ void ThrowIfInterrupted();
 /// child while std::system ignored it here.
 void ThrowIfInterrupted(int wait_status);
 
-/// Registers the child process that a signal is forwarded to (0: none).
-/// If a signal arrived before the child was registered, it is forwarded at
-/// once.
+/// Registers the child process that a signal is forwarded to (0: none; a
+/// negative value -pgid names a process group, as for kill). If a signal
+/// arrived before the child was registered, it is forwarded at once.
 void SetInterruptibleChild(pid_t pid);
 
 }  // namespace hisfm
