@@ -89,16 +89,16 @@ void AddHierarchicalMapperFlags(CLI::App& app,
       ->capture_default_str();
   app.add_option("--HiSfM.min_relative_coverage",
                  o->verifier.builtin.min_relative_coverage,
-                 "builtin verifier: a bridge's inlier coverage relative to "
+                 "context verifier: a bridge's inlier coverage relative to "
                  "each image's trusted pair that scores 0.5")
       ->capture_default_str();
   app.add_option("--HiSfM.coverage_grid_cells",
                  o->verifier.builtin.grid_cells,
-                 "builtin verifier: grid cells along the longer image side")
+                 "context verifier: grid cells along the longer image side")
       ->capture_default_str();
   app.add_option("--HiSfM.filter_pairs", o->verifier.filter_pairs,
                  "Remove pairs explained by repeated structure before the "
-                 "hierarchy (not with verifier none)")
+                 "hierarchy (context verifier only)")
       ->capture_default_str();
   app.add_option("--HiSfM.filter_top_pairs", o->filter_top_pairs,
                  "The pair filter judges each image's this many strongest "
@@ -133,15 +133,15 @@ void AddHierarchicalMapperFlags(CLI::App& app,
       ->capture_default_str();
   app.add_option("--HiSfM.min_distinctive_ratio",
                  o->verifier.builtin.min_distinctive_ratio,
-                 "builtin verifier: distinctive inliers ratio scoring 0.5")
+                 "context verifier: distinctive inliers ratio scoring 0.5")
       ->capture_default_str();
   app.add_option("--HiSfM.distinctive_significance",
                  o->verifier.builtin.distinctive_significance,
-                 "builtin verifier: significance of a distinctive shortfall")
+                 "context verifier: significance of a distinctive shortfall")
       ->capture_default_str();
   app.add_option("--HiSfM.verifier_scan_memory_mb",
                  o->verifier.builtin.max_scan_memory_mb,
-                 "builtin verifier: MiB for what the tracks' read records of "
+                 "context verifier: MiB for what the tracks' read records of "
                  "the bridges (beyond it, bridges are read when asked for)")
       ->capture_default_str();
   app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,

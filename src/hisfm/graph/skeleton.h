@@ -18,13 +18,8 @@
 // rather than pieces). Skeletal images of one community are then
 // joined by intra-community edges (no verification).
 //
-// Kruskal is kept exact. Deferring the bridges of community pairs that had
-// several rejections to a later pass (run only while the tree does not span)
-// was tried on the synthetic street (1000 photos, 168k candidate bridges,
-// 90% doppelgangers): it verified more bridges, not fewer (94.8k with two
-// rejections allowed per pair, 93.6k with eight, against 89.9k), because the
-// true bridges sit on the same community pairs as the doppelgangers, and
-// delaying them leaves more pairs of components to be tried.
+// Kruskal is kept exact (a deferral rule that was tried verified more
+// bridges, not fewer: docs/decisions.md).
 #pragma once
 
 #include <map>

@@ -1,5 +1,7 @@
-// The built-in bridge verifier: a two-view / hierarchy-context disambiguator
-// that needs no learned weights, no images and no network.
+// The coverage and distinctive-support bridge verifier (--HiSfM.verifier
+// context; the builtin default is the multi-view test, multiview_verifier.h):
+// a two-view / hierarchy-context disambiguator that needs no learned
+// weights, no images and no network.
 //
 // Idea (missing correspondences, Zach, Irschara, Bischof, "What can missing
 // correspondences tell us about 3D structure and motion?", CVPR 2008; Cui &
@@ -20,17 +22,7 @@
 // so a bridge at exactly min_relative_coverage scores 0.5, the skeleton
 // builder's default threshold.
 //
-// Measured on the Yan et al. CVPR 2017 scenes (labels from the reference
-// models; default options): in the first Kruskal tree, cup meets 35 bridges
-// (17 true, all accepted, relative coverage >= 0.73; 18 doppelgangers, all
-// rejected, <= 0.50) and books 8 (6 true, >= 0.64; 2 doppelgangers, <= 0.53).
-// With the 10-cell grid every min_relative_coverage in [0.55, 0.70] gives
-// both scenes a connected first tree and no doppelganger in two trees; the
-// default 0.6 does so for grids of 8 to 16 cells as well. Other cues
-// (missing correspondences transferred by the two-view pose or by the
-// homography, guided matching, loop consistency of relative rotations over
-// triplets (Zach, Klopschitz, Pollefeys, CVPR 2010)) separated the bridges
-// less well and are not used.
+// Measurements behind the defaults: docs/decisions.md (2026-11).
 //
 // Second cue, distinctive support (track_consistency.h; Snavely et al.,
 // Photo Tourism, SIGGRAPH 2006; Wilson & Snavely, ICCV 2013): inliers whose
@@ -41,12 +33,6 @@
 //   distinctive_score = min(1, ratio / (2 * min_distinctive_ratio)),
 // silent (1) unless the shortfall is significant (Poisson tail below
 // distinctive_significance). The bridge's score is the smaller of the two.
-// On the synthetic street (facades of identical houses, `hisfm synth --scene
-// street`, seeds 1-5, 24/40/80 photos, no pair filter) the first tree meets
-// 1026 pure doppelganger bridges: their relative coverage is 0.63 to 1.0
-// (coverage alone accepts every one) but their distinctive ratio is at most
-// 0.32 (median 0), against at least 0.57 for the 314 true bridges; on cup
-// and books the cue rejects no bridge of the first tree.
 //
 // Limits: a doppelganger that fills both images (a whole symmetric facade)
 // with repetition never seen twice in one photo leaves nothing to miss and
@@ -141,7 +127,7 @@ struct BridgeEvidence {
   double score = 0;
 };
 
-/// The built-in BridgeScorer (Name() "builtin"). Per-image work (keypoint
+/// The context BridgeScorer (Name() "context"). Per-image work (keypoint
 /// cells, reference coverage) is computed once and cached. At the first
 /// bridge the tracks of the whole graph are joined (one read of every
 /// pair's inliers, in pair-id order), and the same read records each
@@ -165,7 +151,7 @@ class ContextDisambiguator : public BridgeScorer {
 
   ~ContextDisambiguator() override;
 
-  std::string Name() const override { return "builtin"; }
+  std::string Name() const override { return "context"; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
 
   /// Measures one pair from its inliers, read from the database (any two

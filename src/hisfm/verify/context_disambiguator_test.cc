@@ -195,7 +195,7 @@ TEST(ContextDisambiguator, RejectsSyntheticPosterDoppelgangers) {
   ASSERT_GE(blind_false, 1u);
 
   ContextDisambiguator disambiguator(db, graph, comm);
-  EXPECT_EQ(disambiguator.Name(), "builtin");
+  EXPECT_EQ(disambiguator.Name(), "context");
   // Every doppelganger scores below 0.5; true bridges between photos that
   // overlap by at least 70% score at least 0.5.
   for (const ImagePair& p : scene.doppelgangers) {

@@ -39,16 +39,7 @@
 // or counts of geometrically consistent points) and silent when the
 // evidence is too thin to judge: such pairs are kept.
 //
-// Measured (default options, pair labels from the reference models): on
-// `hisfm synth` scenes (street, street_control, symmetric2/4,
-// object_control; seeds 1-5; 24, 40 and 80 photos) the filter removes 26,374
-// false pairs and 73 true ones (all on symmetric4: true pairs whose overlap
-// is mostly the repeated print, ratios 0.40 to 0.50) and leaves no top-1
-// edge false; on the three yan2017 scenes it removes 773 false and 137 true
-// pairs (cup 759/129, weak ones: median 98 inliers, 68 by test A and 61 by
-// test B) and changes no bridge of the first tree. With the filter
-// and the builtin verifier `hisfm mapper` reconstructs all 75 synthetic
-// scenes, their COLMAP-verified variants and cup, books and oats correctly.
+// Measurements behind the defaults: docs/decisions.md (2026-11).
 #pragma once
 
 #include <nlohmann/json.hpp>
