@@ -172,3 +172,56 @@ def test_shared_scene_view_graph():
     graph = hisfm.view_graph(database, log_level="warn")
     assert graph["communities"].shape == graph["image_ids"].shape
     assert graph["num_images"] == len(graph["image_ids"])
+
+
+def colmap_children(pid):
+    """The colmap processes started by process `pid`."""
+    try:
+        with open(f"/proc/{pid}/task/{pid}/children") as f:
+            children = f.read().split()
+    except OSError:
+        return []
+    found = []
+    for child in children:
+        try:
+            with open(f"/proc/{child}/comm") as f:
+                if f.read().strip() == "colmap":
+                    found.append(int(child))
+        except OSError:
+            pass
+    return found
+
+
+@pytest.mark.skipif(shutil.which("colmap") is None,
+                    reason="colmap is not installed (scripts/setup.sh)")
+def test_ctrl_c_stops_the_mapper_and_colmap(scene, tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "out"
+    script = (
+        "import hisfm\n"
+        "try:\n"
+        f"    hisfm.mapper({str(scene / 'database.db')!r}, "
+        f"{str(scene / 'images')!r}, {str(out)!r}, log_level='warn')\n"
+        "    print('finished')\n"
+        "except KeyboardInterrupt:\n"
+        "    print('KeyboardInterrupt')\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    process = subprocess.Popen([sys.executable, "-c", script], env=env,
+                               stdout=subprocess.PIPE, text=True)
+    # Interrupt while colmap runs (the scaffold's mapper).
+    children = []
+    deadline = time.monotonic() + 120
+    while not children and process.poll() is None and time.monotonic() < deadline:
+        children = colmap_children(process.pid)
+        time.sleep(0.005)
+    assert children, "the mapper ended before colmap was seen"
+    process.send_signal(signal.SIGINT)
+    stdout, _ = process.communicate(timeout=120)
+    assert stdout.strip() == "KeyboardInterrupt"
+    for child in children:
+        assert not os.path.exists(f"/proc/{child}") or \
+            open(f"/proc/{child}/stat").read().split()[2] == "Z"
+    assert not out.exists()
