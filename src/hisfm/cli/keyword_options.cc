@@ -44,9 +44,11 @@ void ParseKeywords(
   std::set<std::string> seen;
   const std::vector<const CLI::Option*> flags = KeywordFlags(app);
   for (const auto& [keyword, value] : keywords) {
+    // (clang 14 cannot capture a structured binding.)
+    const std::string& name = keyword;
     const auto flag = std::find_if(
-        flags.begin(), flags.end(), [&](const CLI::Option* option) {
-          return KeywordOfFlag(option->get_name()) == keyword;
+        flags.begin(), flags.end(), [&name](const CLI::Option* option) {
+          return KeywordOfFlag(option->get_name()) == name;
         });
     if (flag == flags.end()) {
       throw UnknownKeyword(StrCat("unknown option '", keyword, "'"));
