@@ -49,7 +49,9 @@ int main(int argc, char** argv) {
   std::string reference_path;
   app.add_option("--reference", reference_path,
                  "Ground-truth model: adds pose errors of models and joins");
-  double radius = 3.0;
+  double radius = 3.0, max_scale = 2.0, max_angle = 40.0;
+  app.add_option("--max_scale_change", max_scale);
+  app.add_option("--max_view_angle", max_angle);
   app.add_option("--radius", radius, "Keypoint radius (pixels)");
   std::vector<ImageId> debug_pairs;
   app.add_option("--debug_pair", debug_pairs, "id1 id2: print its models");
@@ -66,6 +68,8 @@ int main(int argc, char** argv) {
   }
   MultiViewVerifierOptions verifier_options;
   verifier_options.geometry.keypoint_radius_px = radius;
+  verifier_options.edge_test.visibility.max_scale_change = max_scale;
+  verifier_options.edge_test.visibility.max_view_angle_deg = max_angle;
   verifier_options.edge_test.record_missing = !debug_pairs.empty();
   MultiViewVerifier verifier(database, graph, verifier_options);
   Reconstruction reference;

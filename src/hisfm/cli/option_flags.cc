@@ -48,6 +48,11 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  "Repair the trees' union to K-edge-connectivity across "
                  "minimum cuts")
       ->capture_default_str();
+  app.add_option("--HiSfM.fallback_threshold", h.skeleton.fallback_threshold,
+                 "Communities the trees leave apart are joined through the "
+                 "best-scoring bridge already scored if it reaches this "
+                 "(>= verify_threshold: off)")
+      ->capture_default_str();
   app.add_option("--HiSfM.leaf_edges", h.leaves.leaf_edges,
                  "Edges per leaf to skeletal images of its community")
       ->capture_default_str();
@@ -62,6 +67,15 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  "builtin verifier: a trusted edge (community, intra-community "
                  "or leaf edge) scoring below this is removed and the "
                  "hierarchy rebuilt")
+      ->capture_default_str();
+  app.add_option("--HiSfM.support_edges",
+                 o->verifier.verified_hierarchy.support_edges,
+                 "builtin verifier: each image's strongest pairs that pass "
+                 "--HiSfM.support_threshold also serve the reconstruction")
+      ->capture_default_str();
+  app.add_option("--HiSfM.support_threshold",
+                 o->verifier.verified_hierarchy.support_threshold,
+                 "builtin verifier: minimum score of a support edge")
       ->capture_default_str();
   app.add_option("--HiSfM.clean_inliers",
                  o->verifier.verified_hierarchy.clean_inliers,

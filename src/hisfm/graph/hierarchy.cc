@@ -16,6 +16,7 @@ void HierarchyOptions::Check() const {
 std::vector<ImagePair> Hierarchy::Edges() const {
   std::vector<ImagePair> out = skeleton.Edges();
   for (const ViewGraphEdge& e : leaf_edges) out.push_back(e.pair);
+  for (const ViewGraphEdge& e : support_edges) out.push_back(e.pair);
   std::sort(out.begin(), out.end());
   out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
@@ -102,6 +103,8 @@ const char* RoleName(BridgeRole role) {
       return "backup";
     case BridgeRole::kConnectivity:
       return "connectivity";
+    case BridgeRole::kFallback:
+      return "fallback";
   }
   return "tree";
 }
@@ -143,6 +146,10 @@ nlohmann::json HierarchyToJson(
     intra.push_back(EdgeToJson(e));
   nlohmann::json leaves = nlohmann::json::array();
   for (const ViewGraphEdge& e : h.leaf_edges) leaves.push_back(EdgeToJson(e));
+  nlohmann::json support = nlohmann::json::array();
+  for (const ViewGraphEdge& e : h.support_edges) {
+    support.push_back(EdgeToJson(e));
+  }
   nlohmann::json components = nlohmann::json::array();
   for (const HierarchyComponent& c : h.components) {
     components.push_back({{"images", c.images},
@@ -160,6 +167,7 @@ nlohmann::json HierarchyToJson(
           {"rejected_bridges", rejected},
           {"skeleton_intra_edges", intra},
           {"leaf_edges", leaves},
+          {"support_edges", support},
           {"components", components},
           {"isolated_images", h.isolated_images}};
 }

@@ -41,12 +41,16 @@ struct Hierarchy {
   Communities communities;
   Skeleton skeleton;
   std::vector<ViewGraphEdge> leaf_edges;
+  /// Verified edges added inside components to densify the reconstruction
+  /// (not part of the paper's hierarchy; see verified_hierarchy.h). Those
+  /// between two skeletal images are in their component's skeleton_edges.
+  std::vector<ViewGraphEdge> support_edges;
   /// Components of H with at least two images, largest first.
   std::vector<HierarchyComponent> components;
   /// Images without any verified pair (not registered).
   std::vector<ImageId> isolated_images;
 
-  /// E_H = E_s + E_l, sorted and unique.
+  /// E_H = E_s + E_l (+ support edges), sorted and unique.
   std::vector<ImagePair> Edges() const;
 };
 

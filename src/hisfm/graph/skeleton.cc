@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <set>
 #include <unordered_map>
 
@@ -21,6 +22,7 @@ void SkeletonOptions::Check() const {
   HISFM_CHECK_OPTION(num_backup_bridges >= 0);
   HISFM_CHECK_OPTION(weak_link_max_inliers >= 0);
   HISFM_CHECK_OPTION(max_verify_batch_size >= 1);
+  HISFM_CHECK_OPTION(fallback_threshold >= 0.0 && fallback_threshold <= 1.0);
 }
 
 int SkeletonOptions::NumTreesFor(size_t num_images) const {
@@ -217,7 +219,7 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
 // `used[kappa]` marks the community pairs of the skeleton, `kappas` lists
 // them by dense id.
 template <typename RejectFn>
-void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
+void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges, size_t m, int K,
                          const std::vector<CommunityPair>& kappas,
                          const SkeletonOptions& options, ScoreCache* cache,
                          std::vector<char>* used,
@@ -291,79 +293,109 @@ void RestoreConnectivity(const std::vector<Bridge>& bridges, size_t m, int K,
   }
 }
 
-}  // namespace
-
-Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
-                       BridgeScorer* scorer, const SkeletonOptions& options) {
-  options.Check();
-  const Timer timer;
-  Skeleton skeleton;
-  skeleton.num_trees = options.NumTreesFor(graph.NumImages());
-  const size_t m = communities.NumCommunities();
-
-  std::vector<Bridge> bridges;
-  for (const ViewGraphEdge& e : graph.Edges()) {
-    const CommunityId a = communities.Of(e.pair.image_id1);
-    const CommunityId b = communities.Of(e.pair.image_id2);
-    if (a != b) bridges.push_back({e.pair, a, b, e.weight, 0});
+// The state of one skeleton build: the bridges in Kruskal's order, their
+// community pairs, the lazily filled scores and what has been taken or
+// rejected. Each step of BuildSkeleton is a method.
+class SkeletonBuilder {
+ public:
+  SkeletonBuilder(const ViewGraph& graph, const Communities& communities,
+                  BridgeScorer* scorer, const SkeletonOptions& options)
+      : options_(options),
+        m_(communities.NumCommunities()),
+        scorer_(scorer) {
+    skeleton_.num_trees = options.NumTreesFor(graph.NumImages());
+    for (const ViewGraphEdge& e : graph.Edges()) {
+      const CommunityId a = communities.Of(e.pair.image_id1);
+      const CommunityId b = communities.Of(e.pair.image_id2);
+      if (a != b) bridges_.push_back({e.pair, a, b, e.weight, 0});
+    }
+    std::stable_sort(bridges_.begin(), bridges_.end(),
+                     [](const Bridge& x, const Bridge& y) {
+                       return x.weight > y.weight;
+                     });
+    skeleton_.num_candidate_bridges = bridges_.size();
+    for (Bridge& b : bridges_) {
+      const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
+      auto [it, inserted] =
+          kappa_ids_.emplace(kappa, static_cast<uint32_t>(kappas_.size()));
+      if (inserted) kappas_.push_back(kappa);
+      b.kappa = it->second;
+    }
+    used_.assign(kappas_.size(), 0);
+    rejected_seen_.assign(bridges_.size(), 0);
+    in_skeleton_.assign(bridges_.size(), 0);
+    cache_ = std::make_unique<ScoreCache>(bridges_, scorer, &skeleton_);
   }
-  std::stable_sort(bridges.begin(), bridges.end(),
-                   [](const Bridge& x, const Bridge& y) {
-                     return x.weight > y.weight;
-                   });
-  skeleton.num_candidate_bridges = bridges.size();
-  // Dense ids of the community pairs.
-  std::vector<CommunityPair> kappas;
-  std::unordered_map<CommunityPair, uint32_t, CommunityPairHash> kappa_ids;
-  for (Bridge& b : bridges) {
-    const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
-    auto [it, inserted] =
-        kappa_ids.emplace(kappa, static_cast<uint32_t>(kappas.size()));
-    if (inserted) kappas.push_back(kappa);
-    b.kappa = it->second;
+
+  // Algorithm 1: K greedy trees; returns whether every tree spans.
+  bool PackTrees();
+  // Verified bridges across minimum cuts until K-edge-connected.
+  void RestoreConnectivity();
+  // Verified parallel bridges for tree bridges with few inliers.
+  void AddBackupBridges();
+  // Verified top-weight bridges on community pairs not used yet.
+  void AddTopWeightBridges();
+  // Joins communities the trees left apart through the best-scoring bridges
+  // already scored, if they reach fallback_threshold.
+  void AddFallbackBridges();
+  // Joins each community's skeletal images; returns the skeleton.
+  Skeleton Finish(const ViewGraph& graph, const Communities& communities);
+
+ private:
+  void Reject(size_t k, double score, BridgeRole role) {
+    if (!rejected_seen_[k]) {
+      rejected_seen_[k] = 1;
+      skeleton_.rejected.push_back(
+          MakeRecord(bridges_[k], score, false, role, -1));
+    }
+  }
+  void Take(size_t k, double score, BridgeRole role, int tree) {
+    in_skeleton_[k] = 1;
+    skeleton_.bridges.push_back(MakeRecord(bridges_[k], score, true, role,
+                                           tree));
   }
 
+  const SkeletonOptions& options_;
+  const size_t m_;
+  BridgeScorer* scorer_;
+  Skeleton skeleton_;
+  std::vector<Bridge> bridges_;
+  std::vector<CommunityPair> kappas_;
+  std::unordered_map<CommunityPair, uint32_t, CommunityPairHash> kappa_ids_;
+  std::unique_ptr<ScoreCache> cache_;
+  std::vector<char> used_;           // U: community pairs of the skeleton.
+  std::vector<char> rejected_seen_;  // Recorded once.
+  std::vector<char> in_skeleton_;
+};
+
+bool SkeletonBuilder::PackTrees() {
   // A tree can hold at most m - c edges, c = components of the community
   // graph (a forest when the view graph is disconnected).
-  UnionFind all(m);
-  size_t num_components = m;
-  for (const Bridge& b : bridges) num_components -= all.Union(b.c1, b.c2);
-  const size_t max_tree_edges = m - num_components;
-
+  UnionFind all(m_);
+  size_t num_components = m_;
+  for (const Bridge& b : bridges_) num_components -= all.Union(b.c1, b.c2);
+  const size_t max_tree_edges = m_ - num_components;
   const size_t batch = std::max<size_t>(
-      1, std::min<size_t>(options.max_verify_batch_size,
-                          scorer ? scorer->PreferredBatchSize() : 1));
-  ScoreCache cache(bridges, scorer, &skeleton);
-  std::vector<char> used(kappas.size(), 0);  // U: pairs of earlier trees.
-  std::vector<char> rejected_seen(bridges.size(), 0);  // Recorded once.
-  std::vector<char> in_skeleton(bridges.size(), 0);
-
-  auto reject = [&](size_t k, double score, BridgeRole role) {
-    if (!rejected_seen[k]) {
-      rejected_seen[k] = 1;
-      skeleton.rejected.push_back(
-          MakeRecord(bridges[k], score, false, role, -1));
-    }
-  };
-
+      1, std::min<size_t>(options_.max_verify_batch_size,
+                          scorer_ ? scorer_->PreferredBatchSize() : 1));
   // Candidates of the trees: bridges not rejected and not on a used pair.
-  std::vector<size_t> candidates(bridges.size());
-  for (size_t k = 0; k < bridges.size(); ++k) candidates[k] = k;
+  std::vector<size_t> candidates(bridges_.size());
+  for (size_t k = 0; k < bridges_.size(); ++k) candidates[k] = k;
   bool all_trees_span = max_tree_edges > 0;
   // Rejections met since the last bridge taken: sizes speculative batches.
   size_t rejection_run = 0;
-  for (int t = 0; t < skeleton.num_trees && max_tree_edges > 0; ++t) {
-    UnionFind uf(m);
+  for (int t = 0; t < skeleton_.num_trees && max_tree_edges > 0; ++t) {
+    UnionFind uf(m_);
     std::vector<uint32_t> tree_pairs;
     size_t tree_size = 0;
     for (size_t i = 0; i < candidates.size() && tree_size < max_tree_edges;
          ++i) {
       const size_t k = candidates[i];
-      const Bridge& b = bridges[k];
-      if (used[b.kappa] || rejected_seen[k] || uf.Connected(b.c1, b.c2)) {
+      const Bridge& b = bridges_[k];
+      if (used_[b.kappa] || rejected_seen_[k] || uf.Connected(b.c1, b.c2)) {
         continue;
       }
-      if (!cache.Has(k) && batch > 1 && rejection_run > 0) {
+      if (!cache_->Has(k) && batch > 1 && rejection_run > 0) {
         // Speculative batch: the next bridges Kruskal meets if every one
         // before them is rejected, as many as the current run of
         // rejections (so a scene where most bridges pass stays lazy). They
@@ -374,18 +406,18 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
         const size_t end = std::min(candidates.size(), i + kMaxLookahead);
         for (size_t q = i; q < end && todo.size() < want; ++q) {
           const size_t kc = candidates[q];
-          const Bridge& c = bridges[kc];
-          if (used[c.kappa] || rejected_seen[kc] || cache.Has(kc) ||
+          const Bridge& c = bridges_[kc];
+          if (used_[c.kappa] || rejected_seen_[kc] || cache_->Has(kc) ||
               uf.Connected(c.c1, c.c2)) {
             continue;
           }
           todo.push_back(kc);
         }
-        cache.Fill(todo);
+        cache_->Fill(todo);
       }
-      const double score = cache.Get(k);
-      if (score < options.verify_threshold) {
-        reject(k, score, BridgeRole::kTree);
+      const double score = cache_->Get(k);
+      if (score < options_.verify_threshold) {
+        Reject(k, score, BridgeRole::kTree);
         ++rejection_run;
         continue;
       }
@@ -393,95 +425,135 @@ Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
       uf.Union(b.c1, b.c2);
       tree_pairs.push_back(b.kappa);
       ++tree_size;
-      in_skeleton[k] = 1;
-      skeleton.bridges.push_back(
-          MakeRecord(b, score, true, BridgeRole::kTree, t));
+      Take(k, score, BridgeRole::kTree, t);
     }
     all_trees_span &= tree_size == max_tree_edges;
-    for (uint32_t kappa : tree_pairs) used[kappa] = 1;
+    for (uint32_t kappa : tree_pairs) used_[kappa] = 1;
     // Later trees never take a rejected bridge or one of a used pair.
     candidates.erase(
         std::remove_if(candidates.begin(), candidates.end(),
                        [&](size_t k) {
-                         return rejected_seen[k] || used[bridges[k].kappa];
+                         return rejected_seen_[k] || used_[bridges_[k].kappa];
                        }),
         candidates.end());
   }
+  return all_trees_span;
+}
 
-  HISFM_LOG_DEBUG("skeleton: {} trees, {} bridges verified ({:.2f} s)",
-                  skeleton.num_trees, skeleton.num_verified,
-                  timer.ElapsedSeconds());
-  // K edge-disjoint spanning forests are K-edge-connected in every
-  // component: the repair is needed only when a tree fell short.
-  if (options.restore_connectivity && skeleton.num_trees > 1 &&
-      !all_trees_span) {
-    RestoreConnectivity(bridges, m, skeleton.num_trees, kappas, options,
-                        &cache, &used, &in_skeleton, &skeleton, reject);
-  }
+void SkeletonBuilder::RestoreConnectivity() {
+  RestoreConnectivityAcrossCuts(
+      bridges_, m_, skeleton_.num_trees, kappas_, options_, cache_.get(),
+      &used_, &in_skeleton_, &skeleton_,
+      [&](size_t k, double score, BridgeRole role) { Reject(k, score, role); });
+}
 
-  // Backups for weak links: verified parallel bridges between the same
-  // communities as a weak tree bridge.
-  if (options.num_backup_bridges > 0) {
-    // Backups still wanted per community pair; -1: not a weak link.
-    std::vector<int> wanted(kappas.size(), -1);
-    size_t num_weak = 0;
-    for (const BridgeRecord& r : skeleton.bridges) {
-      if (static_cast<int>(r.weight) < options.weak_link_max_inliers) {
-        const uint32_t kappa =
-            kappa_ids.at(MakeCommunityPair(r.community1, r.community2));
-        if (wanted[kappa] < 0) {
-          wanted[kappa] = options.num_backup_bridges;
-          ++num_weak;
-        }
+void SkeletonBuilder::AddBackupBridges() {
+  if (options_.num_backup_bridges <= 0) return;
+  // Backups still wanted per community pair; -1: not a weak link.
+  std::vector<int> wanted(kappas_.size(), -1);
+  size_t num_weak = 0;
+  for (const BridgeRecord& r : skeleton_.bridges) {
+    if (static_cast<int>(r.weight) < options_.weak_link_max_inliers) {
+      const uint32_t kappa =
+          kappa_ids_.at(MakeCommunityPair(r.community1, r.community2));
+      if (wanted[kappa] < 0) {
+        wanted[kappa] = options_.num_backup_bridges;
+        ++num_weak;
       }
     }
-    for (size_t k = 0; k < bridges.size() && num_weak > 0; ++k) {
-      const Bridge& b = bridges[k];
-      if (wanted[b.kappa] <= 0 || in_skeleton[k]) continue;
-      const double score = cache.Get(k);
-      if (score < options.verify_threshold) {
-        reject(k, score, BridgeRole::kBackup);
-        continue;
-      }
-      in_skeleton[k] = 1;
-      skeleton.bridges.push_back(
-          MakeRecord(b, score, true, BridgeRole::kBackup, -1));
-      if (--wanted[b.kappa] == 0) --num_weak;
-    }
   }
-
-  // Extra top-weight bridges on community pairs not used yet.
-  int num_top = 0;
-  for (size_t k = 0; k < bridges.size(); ++k) {
-    if (num_top >= options.num_top_bridges) break;
-    const Bridge& b = bridges[k];
-    if (in_skeleton[k] || used[b.kappa]) continue;
-    const double score = cache.Get(k);
-    if (score < options.verify_threshold) {
-      reject(k, score, BridgeRole::kTopWeight);
+  for (size_t k = 0; k < bridges_.size() && num_weak > 0; ++k) {
+    const Bridge& b = bridges_[k];
+    if (wanted[b.kappa] <= 0 || in_skeleton_[k]) continue;
+    const double score = cache_->Get(k);
+    if (score < options_.verify_threshold) {
+      Reject(k, score, BridgeRole::kBackup);
       continue;
     }
-    used[b.kappa] = 1;
-    in_skeleton[k] = 1;
-    skeleton.bridges.push_back(
-        MakeRecord(b, score, true, BridgeRole::kTopWeight, -1));
+    Take(k, score, BridgeRole::kBackup, -1);
+    if (--wanted[b.kappa] == 0) --num_weak;
+  }
+}
+
+void SkeletonBuilder::AddTopWeightBridges() {
+  int num_top = 0;
+  for (size_t k = 0; k < bridges_.size(); ++k) {
+    if (num_top >= options_.num_top_bridges) break;
+    const Bridge& b = bridges_[k];
+    if (in_skeleton_[k] || used_[b.kappa]) continue;
+    const double score = cache_->Get(k);
+    if (score < options_.verify_threshold) {
+      Reject(k, score, BridgeRole::kTopWeight);
+      continue;
+    }
+    used_[b.kappa] = 1;
+    Take(k, score, BridgeRole::kTopWeight, -1);
     ++num_top;
   }
+}
 
-  HISFM_LOG_DEBUG("skeleton: repair and extra bridges done ({:.2f} s)",
-                  timer.ElapsedSeconds());
+void SkeletonBuilder::AddFallbackBridges() {
+  if (options_.fallback_threshold >= options_.verify_threshold) return;
+  UnionFind uf(m_);
+  for (size_t k = 0; k < bridges_.size(); ++k) {
+    if (in_skeleton_[k]) uf.Union(bridges_[k].c1, bridges_[k].c2);
+  }
+  // Bridges already scored below the threshold, best first (ties: heavier
+  // first, then Kruskal's order).
+  std::vector<size_t> scored;
+  for (size_t k = 0; k < bridges_.size(); ++k) {
+    if (!in_skeleton_[k] && cache_->Has(k) &&
+        cache_->Get(k) >= options_.fallback_threshold) {
+      scored.push_back(k);
+    }
+  }
+  std::stable_sort(scored.begin(), scored.end(), [&](size_t a, size_t b) {
+    return cache_->Get(a) > cache_->Get(b);
+  });
+  for (const size_t k : scored) {
+    const Bridge& b = bridges_[k];
+    if (uf.Connected(b.c1, b.c2)) continue;
+    uf.Union(b.c1, b.c2);
+    used_[b.kappa] = 1;
+    Take(k, cache_->Get(k), BridgeRole::kFallback, -1);
+  }
+}
+
+Skeleton SkeletonBuilder::Finish(const ViewGraph& graph,
+                                 const Communities& communities) {
   std::set<ImageId> skeletal;
-  for (const BridgeRecord& r : skeleton.bridges) {
+  for (const BridgeRecord& r : skeleton_.bridges) {
     skeletal.insert(r.pair.image_id1);
     skeletal.insert(r.pair.image_id2);
   }
-  skeleton.intra_edges = ConnectSkeletalImages(graph, communities, skeletal);
-  for (const ViewGraphEdge& e : skeleton.intra_edges) {
+  skeleton_.intra_edges = ConnectSkeletalImages(graph, communities, skeletal);
+  for (const ViewGraphEdge& e : skeleton_.intra_edges) {
     skeletal.insert(e.pair.image_id1);
     skeletal.insert(e.pair.image_id2);
   }
-  skeleton.images.assign(skeletal.begin(), skeletal.end());
-  return skeleton;
+  skeleton_.images.assign(skeletal.begin(), skeletal.end());
+  return std::move(skeleton_);
+}
+
+}  // namespace
+
+Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
+                       BridgeScorer* scorer, const SkeletonOptions& options) {
+  options.Check();
+  const Timer timer;
+  SkeletonBuilder builder(graph, communities, scorer, options);
+  const bool all_trees_span = builder.PackTrees();
+  // K edge-disjoint spanning forests are K-edge-connected in every
+  // component: the repair is needed only when a tree fell short.
+  if (options.restore_connectivity && options.NumTreesFor(graph.NumImages()) > 1 &&
+      !all_trees_span) {
+    builder.RestoreConnectivity();
+  }
+  builder.AddBackupBridges();
+  builder.AddTopWeightBridges();
+  if (!all_trees_span) builder.AddFallbackBridges();
+  HISFM_LOG_DEBUG("skeleton built ({:.2f} s)", timer.ElapsedSeconds());
+  return builder.Finish(graph, communities);
 }
 
 }  // namespace hisfm

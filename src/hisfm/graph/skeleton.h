@@ -11,7 +11,11 @@
 // the union is then repaired across minimum cuts (Stoer-Wagner) so that it is
 // K-edge-connected, as the paper's Tutte-Nash-Williams argument expects.
 // Optional extra bridges (top-weight ones, and backups
-// for weak links) are verified too. Skeletal images of one community are then
+// for weak links) are verified too. When the trees cannot span (every bridge
+// between some communities scored below tau), the best-scoring bridges that
+// were scored join what is left apart, if they reach a lower fallback
+// threshold (failing soft: one model through its most trustworthy bridge,
+// rather than pieces). Skeletal images of one community are then
 // joined by intra-community edges (no verification).
 //
 // Kruskal is kept exact. Deferring the bridges of community pairs that had
@@ -61,6 +65,13 @@ struct SkeletonOptions {
   /// component of the community graph is K-edge-connected or no bridge
   /// across the cut passes verification.
   bool restore_connectivity = true;
+  /// When the trees leave communities apart (every bridge between them
+  /// scored below verify_threshold), join them through the best-scoring
+  /// bridges already scored, if they score at least this: a component
+  /// reconstructed through its most trustworthy bridge rather than two
+  /// models. No bridge is scored for it. A value >= verify_threshold turns
+  /// it off.
+  double fallback_threshold = 0.5;
 
   void Check() const;
   /// K for a graph of `num_images` images.
@@ -68,7 +79,7 @@ struct SkeletonOptions {
 };
 
 /// Why a bridge is in the skeleton.
-enum class BridgeRole { kTree, kTopWeight, kBackup, kConnectivity };
+enum class BridgeRole { kTree, kTopWeight, kBackup, kConnectivity, kFallback };
 
 /// A bridge that was scored, with its outcome.
 struct BridgeRecord {

@@ -10,6 +10,7 @@
 #include "hisfm/graph/hierarchy.h"
 #include "hisfm/graph/min_cut.h"
 #include "hisfm/graph/union_find.h"
+#include "hisfm/util/error.h"
 
 namespace hisfm {
 namespace {
@@ -356,6 +357,220 @@ TEST(Hierarchy, RejectedBridgesCanLeaveAForest) {
   EXPECT_TRUE(h.skeleton.bridges.empty());
   ASSERT_EQ(h.skeleton.rejected.size(), 1u);
   EXPECT_EQ(h.components.size(), 2u);
+}
+
+// Scores each pair from a table (0.9 for pairs not in it) and records calls.
+class TableScorer : public BridgeScorer {
+ public:
+  std::map<ImagePair, double> scores;
+  std::vector<ImagePair> calls;
+  std::string Name() const override { return "table"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    std::vector<double> s;
+    for (const ImagePair& p : pairs) {
+      calls.push_back(p);
+      auto it = scores.find(p);
+      s.push_back(it == scores.end() ? 0.9 : it->second);
+    }
+    return s;
+  }
+};
+
+// Two communities {1, 2} and {3, 4} (strong internal edges) and three
+// bridges between them, heaviest first: (2, 3), (1, 4), (1, 3).
+ViewGraph TwoCommunityGraph() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4}, {{ImagePair(1, 2), 300},
+                     {ImagePair(3, 4), 300},
+                     {ImagePair(2, 3), 50},
+                     {ImagePair(1, 4), 40},
+                     {ImagePair(1, 3), 30}});
+}
+
+std::vector<BridgeRecord> BridgesWithRole(const Skeleton& s, BridgeRole role) {
+  std::vector<BridgeRecord> out;
+  for (const BridgeRecord& b : s.bridges) {
+    if (b.role == role) out.push_back(b);
+  }
+  return out;
+}
+
+TEST(Skeleton, FallbackJoinsCommunitiesThroughTheBestScoredBridge) {
+  const ViewGraph g = TwoCommunityGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  TableScorer scorer;
+  // Every bridge fails tau = 0.5; (1, 4), not the heaviest, scores best.
+  scorer.scores = {{ImagePair(2, 3), 0.2},
+                   {ImagePair(1, 4), 0.35},
+                   {ImagePair(1, 3), 0.1}};
+  SkeletonOptions options;
+  options.verify_threshold = 0.5;
+  options.fallback_threshold = 0.3;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  // Kruskal scored every bridge once; the fallback scored none.
+  EXPECT_EQ(scorer.calls.size(), 3u);
+  EXPECT_EQ(s.num_verified, 3u);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  const BridgeRecord& b = s.bridges[0];
+  EXPECT_EQ(b.role, BridgeRole::kFallback);
+  EXPECT_EQ(b.pair, ImagePair(1, 4));
+  EXPECT_DOUBLE_EQ(b.score, 0.35);
+  EXPECT_TRUE(b.accepted);
+  EXPECT_EQ(b.tree, -1);
+  EXPECT_NE(b.community1, b.community2);
+  EXPECT_TRUE(s.Contains(1));
+  EXPECT_TRUE(s.Contains(4));
+
+  // The hierarchy is one component through that bridge.
+  HierarchyOptions hierarchy_options;
+  hierarchy_options.skeleton = options;
+  TableScorer scorer2;
+  scorer2.scores = scorer.scores;
+  const Hierarchy h = BuildHierarchy(g, &scorer2, hierarchy_options);
+  ASSERT_EQ(h.components.size(), 1u);
+  EXPECT_EQ(h.components[0].images.size(), 4u);
+  const std::vector<ImagePair> edges = h.Edges();
+  EXPECT_TRUE(std::binary_search(edges.begin(), edges.end(), ImagePair(1, 4)));
+  EXPECT_FALSE(std::binary_search(edges.begin(), edges.end(), ImagePair(2, 3)));
+  EXPECT_FALSE(std::binary_search(edges.begin(), edges.end(), ImagePair(1, 3)));
+}
+
+TEST(Skeleton, FallbackNeedsTheFallbackThreshold) {
+  const ViewGraph g = TwoCommunityGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  TableScorer scorer;
+  scorer.scores = {{ImagePair(2, 3), 0.2},
+                   {ImagePair(1, 4), 0.25},
+                   {ImagePair(1, 3), 0.1}};
+  SkeletonOptions options;
+  options.verify_threshold = 0.5;
+  options.fallback_threshold = 0.3;  // above every score
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_TRUE(s.bridges.empty());
+  EXPECT_EQ(s.rejected.size(), 3u);
+  // A score equal to the fallback threshold is enough.
+  options.fallback_threshold = 0.25;
+  TableScorer scorer2;
+  scorer2.scores = scorer.scores;
+  const Skeleton s2 = BuildSkeleton(g, c, &scorer2, options);
+  ASSERT_EQ(s2.bridges.size(), 1u);
+  EXPECT_EQ(s2.bridges[0].pair, ImagePair(1, 4));
+  EXPECT_EQ(s2.bridges[0].role, BridgeRole::kFallback);
+}
+
+TEST(Skeleton, FallbackOffWhenNotBelowVerifyThreshold) {
+  const ViewGraph g = TwoCommunityGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  for (const double fallback : {0.5, 0.7}) {
+    TableScorer scorer;
+    scorer.scores = {{ImagePair(2, 3), 0.2},
+                     {ImagePair(1, 4), 0.45},
+                     {ImagePair(1, 3), 0.1}};
+    SkeletonOptions options;
+    options.verify_threshold = 0.5;
+    options.fallback_threshold = fallback;
+    const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+    EXPECT_TRUE(s.bridges.empty()) << "fallback " << fallback;
+    EXPECT_EQ(s.rejected.size(), 3u);
+    HierarchyOptions hierarchy_options;
+    hierarchy_options.skeleton = options;
+    TableScorer scorer2;
+    scorer2.scores = scorer.scores;
+    const Hierarchy h = BuildHierarchy(g, &scorer2, hierarchy_options);
+    EXPECT_EQ(h.components.size(), 2u) << "fallback " << fallback;
+  }
+}
+
+TEST(Skeleton, FallbackOnlyJoinsWhatTheTreesLeftApart) {
+  // Three chains (communities of 5); cluster 0-1 bridges pass, every bridge
+  // touching cluster 2 fails tau but scores at least the fallback threshold.
+  for (uint32_t seed = 0; seed < 5; ++seed) {
+    const ViewGraph g = ClusteredGraph(3, 5, 0.3, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    std::set<CommunityId> third;
+    for (ImageId id = 11; id <= 15; ++id) third.insert(c.Of(id));
+    TableScorer scorer;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.3, 0.45);
+    size_t num_third_bridges = 0;
+    for (const ViewGraphEdge& e : g.Edges()) {
+      const CommunityId a = c.Of(e.pair.image_id1);
+      const CommunityId b = c.Of(e.pair.image_id2);
+      if (a == b) continue;
+      if (third.count(a) != third.count(b)) {
+        scorer.scores[e.pair] = u(rng);
+        ++num_third_bridges;
+      }
+    }
+    ASSERT_GT(num_third_bridges, 1u);
+    SkeletonOptions options;
+    options.num_trees = 1;
+    options.num_backup_bridges = 0;
+    options.verify_threshold = 0.5;
+    options.fallback_threshold = 0.25;
+    const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+    // The communities are connected by the skeleton's bridges.
+    UnionFind uf(c.NumCommunities());
+    for (const BridgeRecord& b : s.bridges) {
+      EXPECT_TRUE(uf.Union(b.community1, b.community2)) << "seed " << seed;
+    }
+    size_t joined = 0;
+    for (CommunityId k = 1; k < c.NumCommunities(); ++k) {
+      joined += uf.Connected(0, k);
+    }
+    EXPECT_EQ(joined, c.NumCommunities() - 1) << "seed " << seed;
+    // Fallback bridges only where no bridge passed: each one touches the
+    // third cluster and is the best-scoring bridge between the two sides
+    // it joins at that point; tree bridges all pass tau.
+    const std::vector<BridgeRecord> fallback =
+        BridgesWithRole(s, BridgeRole::kFallback);
+    EXPECT_FALSE(fallback.empty()) << "seed " << seed;
+    for (const BridgeRecord& b : s.bridges) {
+      if (b.role == BridgeRole::kFallback) {
+        EXPECT_LT(b.score, options.verify_threshold);
+        EXPECT_GE(b.score, options.fallback_threshold);
+        EXPECT_NE(third.count(b.community1), third.count(b.community2));
+      } else {
+        EXPECT_GE(b.score, options.verify_threshold);
+      }
+    }
+    // The first fallback bridge is the best-scored rejected bridge overall.
+    double best = 0;
+    for (const BridgeRecord& r : s.rejected) best = std::max(best, r.score);
+    EXPECT_DOUBLE_EQ(fallback.front().score, best) << "seed " << seed;
+    // The fallback scored nothing itself.
+    EXPECT_EQ(scorer.calls.size(), s.num_verified);
+  }
+}
+
+TEST(Skeleton, NoFallbackWhenTheTreesSpan) {
+  const ViewGraph g = TwoCommunityGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  TableScorer scorer;
+  // The heaviest bridge fails, the next passes: the tree spans.
+  scorer.scores = {{ImagePair(2, 3), 0.45},
+                   {ImagePair(1, 4), 0.8},
+                   {ImagePair(1, 3), 0.4}};
+  SkeletonOptions options;
+  options.num_backup_bridges = 0;
+  options.verify_threshold = 0.5;
+  options.fallback_threshold = 0.1;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(1, 4));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kTree);
+  EXPECT_TRUE(BridgesWithRole(s, BridgeRole::kFallback).empty());
+}
+
+TEST(Skeleton, FallbackThresholdOutOfRangeIsRejected) {
+  SkeletonOptions options;
+  options.fallback_threshold = -0.1;
+  EXPECT_THROW(options.Check(), Error);
+  options.fallback_threshold = 1.5;
+  EXPECT_THROW(options.Check(), Error);
+  options.fallback_threshold = 0.0;
+  EXPECT_NO_THROW(options.Check());
 }
 
 }  // namespace

@@ -405,6 +405,10 @@ std::string AttachLeaves(const ComponentRun& run,
   args.insert(args.end(), options.mapper_args.begin(),
               options.mapper_args.end());
   AddBundleAdjustmentFlags(options, &args);
+  // Keep the attached model whatever its size (colmap discards models under
+  // 10 images, and then fails when it cannot start another).
+  AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
+                 std::to_string(options.min_model_size), &args);
   if (options.attach_local_only && !scaffold.empty()) {
     // No periodic global bundle adjustment while attaching: local bundle
     // adjustment after each registration, one global one at the end.
@@ -415,15 +419,28 @@ std::string AttachLeaves(const ComponentRun& run,
          {"--Mapper.ba_global_images_freq", "--Mapper.ba_global_points_freq"})
       AddDefaultFlag(options.mapper_args, flag, "1000000000", &args);
   }
-  const double seconds = RunColmapWithProgress(
-      options.colmap, args, run.Log(), "Attach: registering images",
-      comp.images.size(), ParseMapperProgress);
+  Timer timer;
+  std::string failure;
+  try {
+    RunColmapWithProgress(options.colmap, args, run.Log(),
+                          "Attach: registering images", comp.images.size(),
+                          ParseMapperProgress);
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    // colmap ends with an error when it cannot start a further model; what
+    // it registered before is kept if it wrote it.
+    failure = e.what();
+  }
+  const double seconds = timer.ElapsedSeconds();
   times->attach += seconds;
   std::string attached = run.dir + "/attached";
   if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
+  if (attached.empty() && !failure.empty()) throw Error(failure);
   ThrowUnless(!attached.empty(),
               StrCat("colmap wrote no model after attaching leaves; see ",
                      run.Log()));
+  if (!failure.empty()) HISFM_LOG_WARN("attach: {}", failure);
   HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
                  ReadModelBinary(attached).NumRegImages(), comp.images.size(),
                  seconds);

@@ -1,5 +1,8 @@
 #include "hisfm/verify/edge_consistency.h"
 
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -98,6 +101,94 @@ class DepthGrid {
   std::vector<double> depth_;
 };
 
+// Camera j's pose in model i's frame (x_j = R X_i + t, model i's units) and
+// the scale that takes model j's units to model i's.
+struct JoinedPose {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  double scale = 1;
+};
+
+// A model point seen in the other image of the pair: a point of model i
+// observed in j, or (in_i) a point of model j observed in i.
+struct JoinObservation {
+  Eigen::Vector3d point;
+  Eigen::Vector2d x;
+  double focal = 1;
+  bool in_i = false;
+};
+
+// Reprojection error (pixels) of a point given in a camera's frame.
+double ReprojectionPixels(const Eigen::Vector3d& Y, const Eigen::Vector2d& x,
+                          double focal) {
+  if (!(Y.z() > 0)) return std::numeric_limits<double>::infinity();
+  return (Y.hnormalized() - x).norm() * focal;
+}
+
+// Reprojection residual of a JoinObservation under (rotation, t, log scale).
+struct JoinResidual {
+  explicit JoinResidual(const JoinObservation& o) : o_(o) {}
+
+  template <typename T>
+  bool operator()(const T* rotation, const T* t, const T* log_scale,
+                  T* residual) const {
+    T p[3];
+    if (!o_.in_i) {
+      const T X[3] = {T(o_.point.x()), T(o_.point.y()), T(o_.point.z())};
+      ceres::AngleAxisRotatePoint(rotation, X, p);
+      for (int k = 0; k < 3; ++k) p[k] += t[k];
+    } else {
+      // Model j's point in j's frame, model i's units, then into i's frame.
+      const T s = exp(log_scale[0]);
+      const T Y[3] = {s * T(o_.point.x()) - t[0], s * T(o_.point.y()) - t[1],
+                      s * T(o_.point.z()) - t[2]};
+      const T inverse[3] = {-rotation[0], -rotation[1], -rotation[2]};
+      ceres::AngleAxisRotatePoint(inverse, Y, p);
+    }
+    residual[0] = T(o_.focal) * (p[0] / p[2] - T(o_.x.x()));
+    residual[1] = T(o_.focal) * (p[1] / p[2] - T(o_.x.y()));
+    return true;
+  }
+
+  JoinObservation o_;
+};
+
+// Refines the join on the observations by robust least squares.
+void RefineJoin(const std::vector<JoinObservation>& observations,
+                const EdgeTestOptions& options, JoinedPose* join) {
+  if (observations.size() < 6) return;
+  const Eigen::AngleAxisd aa(join->R);
+  double rotation[3] = {aa.angle() * aa.axis().x(), aa.angle() * aa.axis().y(),
+                        aa.angle() * aa.axis().z()};
+  double t[3] = {join->t.x(), join->t.y(), join->t.z()};
+  double log_scale = std::log(join->scale);
+  ceres::Problem problem;
+  for (const JoinObservation& o : observations) {
+    problem.AddResidualBlock(
+        new ceres::AutoDiffCostFunction<JoinResidual, 2, 3, 3, 1>(
+            new JoinResidual(o)),
+        new ceres::CauchyLoss(options.join_loss_px), rotation, t, &log_scale);
+  }
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = 25;
+  solver.num_threads = 1;
+  solver.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+  const Eigen::Vector3d r(rotation[0], rotation[1], rotation[2]);
+  const Eigen::Vector3d tr(t[0], t[1], t[2]);
+  if (!r.allFinite() || !tr.allFinite() || !std::isfinite(log_scale) ||
+      tr.norm() < 1e-12) {
+    return;
+  }
+  const double angle = r.norm();
+  join->R = angle > 0 ? Eigen::AngleAxisd(angle, r / angle).toRotationMatrix()
+                      : Eigen::Matrix3d::Identity();
+  join->t = tr;
+  join->scale = std::exp(log_scale);
+}
+
 // Counts the unique points of `source` (mapped into `target`'s frame by
 // `to_target`, depths scaled by `depth_scale`) predicted visible in
 // `target`'s images and found there.
@@ -163,7 +254,7 @@ void CountPredictions(GeometryCache& cache, const LocalModel& source,
 void EdgeTestOptions::Check() const {
   HISFM_CHECK_OPTION(depth_tolerance > 0 && depth_tolerance < 1);
   HISFM_CHECK_OPTION(min_join_points >= 1);
-  HISFM_CHECK_OPTION(min_unique_points >= 1);
+  HISFM_CHECK_OPTION(join_loss_px > 0);
   visibility.Check();
   HISFM_CHECK_OPTION(occlusion_cell_px > 0);
   HISFM_CHECK_OPTION(occlusion_margin >= 0);
@@ -194,11 +285,8 @@ EdgeEvidence TestEdge(GeometryCache& cache, const LocalModel& model_i,
   for (size_t p = 0; p < model_j.points.size(); ++p) {
     point_j[model_j.keypoints[0][p]] = static_cast<int>(p);
   }
-  // Every hypothesis that joins both models is tested; the one whose
-  // predictions the models contradict least wins (a pair mixing true and
-  // doppelganger matches carries one hypothesis for each group, and the
-  // doppelganger one may join the models as well as the true one).
-  double best_rank[2] = {-1, -1};
+  // The hypothesis that joins both models best is tested.
+  double best_join = -1;
   Join best_i, best_j;
   for (size_t h = 0; h < pair->hypotheses.size(); ++h) {
     const Rigid3d& j_from_i = pair->hypotheses[h].cam2_from_cam1;
@@ -228,31 +316,11 @@ EdgeEvidence TestEdge(GeometryCache& cache, const LocalModel& model_i,
         join_j.num_points < options.min_join_points) {
       continue;
     }
-    const double si = join_i.scale;
-    const double sj = join_j.scale;
-    // Model j's frame (j's camera, its units) to model i's, and back.
-    const auto j_to_i = [&](const Eigen::Vector3d& X) {
-      return Eigen::Vector3d(si * (R.transpose() * (X / sj - t)));
-    };
-    const auto i_to_j = [&](const Eigen::Vector3d& X) {
-      return Eigen::Vector3d(sj * (R * (X / si) + t));
-    };
-    EdgeEvidence candidate;
-    CountPredictions(cache, model_j, model_i, j_to_i, options, &candidate);
-    CountPredictions(cache, model_i, model_j, i_to_j, options, &candidate);
-    // Rank: hypotheses whose test speaks first, by fewer contradictions;
-    // then by how well they join.
-    const bool speaks = candidate.num_unique >= options.min_unique_points;
     const double join = join_i.agreement * join_i.num_points +
                         join_j.agreement * join_j.num_points;
-    const double rank[2] = {speaks ? 2.0 - candidate.MissingFraction() : 0.0,
-                            join};
-    if (rank[0] > best_rank[0] ||
-        (rank[0] == best_rank[0] && rank[1] > best_rank[1])) {
-      best_rank[0] = rank[0];
-      best_rank[1] = rank[1];
-      candidate.hypothesis = static_cast<int>(h);
-      evidence = std::move(candidate);
+    if (join > best_join) {
+      best_join = join;
+      evidence.hypothesis = static_cast<int>(h);
       best_i = join_i;
       best_j = join_j;
     }
@@ -265,36 +333,64 @@ EdgeEvidence TestEdge(GeometryCache& cache, const LocalModel& model_i,
   evidence.join_j = best_j.num_points;
   evidence.agreement_i = best_i.agreement;
   evidence.agreement_j = best_j.agreement;
-  const Rigid3d& j_from_i = pair->hypotheses[evidence.hypothesis].cam2_from_cam1;
-  const Eigen::Matrix3d R = j_from_i.rotation.toRotationMatrix();
-  const Eigen::Vector3d& t = j_from_i.translation;
-  const double si = best_i.scale;
-  const double sj = best_j.scale;
-  // The pair's inliers that agree with the joined geometry.
+  const Rigid3d& hypothesis =
+      pair->hypotheses[evidence.hypothesis].cam2_from_cam1;
+  // The join: camera j in model i's frame and model j's scale in model i's
+  // units, refined on the pair's inliers that are model points.
+  JoinedPose join;
+  join.R = hypothesis.rotation.toRotationMatrix();
+  join.t = best_i.scale * hypothesis.translation;
+  join.scale = best_i.scale / best_j.scale;
+  std::vector<JoinObservation> observations;
+  for (const FeatureMatch& m : pair->matches) {
+    const int pi = point_i[m.idx1];
+    const int pj = point_j[m.idx2];
+    if (pi >= 0) {
+      observations.push_back({model_i.points[pi], ij.normalized[m.idx2],
+                              ij.camera.MeanFocal(), false});
+    }
+    if (pj >= 0) {
+      observations.push_back({model_j.points[pj], ii.normalized[m.idx1],
+                              ii.camera.MeanFocal(), true});
+    }
+  }
+  if (options.refine_join) RefineJoin(observations, options, &join);
+  const auto j_to_i = [&](const Eigen::Vector3d& X) {
+    return Eigen::Vector3d(join.R.transpose() * (join.scale * X - join.t));
+  };
+  const auto i_to_j = [&](const Eigen::Vector3d& X) {
+    return Eigen::Vector3d((join.R * X + join.t) / join.scale);
+  };
+  CountPredictions(cache, model_j, model_i, j_to_i, options, &evidence);
+  CountPredictions(cache, model_i, model_j, i_to_j, options, &evidence);
+  // The pair's inliers that agree with the joined geometry: on the epipolar
+  // geometry of the refined pose, and where they are model points, on the
+  // model point's reprojection.
+  const double max_error_px = cache.options().relative_pose.support_error_px;
   const double focal = 0.5 * (ii.camera.MeanFocal() + ij.camera.MeanFocal());
-  const double max_error =
-      cache.options().relative_pose.support_error_px / focal;
   const double angle_cos = std::cos(
       cache.options().relative_pose.min_cheirality_angle_deg * M_PI / 180.0);
-  const Eigen::Matrix3d E = EssentialOfPose(j_from_i);
+  const Eigen::Vector3d unit_t = join.t.normalized();
+  const Eigen::Matrix3d E =
+      EssentialOfPose(Rigid3d(Eigen::Quaterniond(join.R), unit_t));
   evidence.consistent.assign(pair->matches.size(), 0);
   for (size_t k = 0; k < pair->matches.size(); ++k) {
     const FeatureMatch& m = pair->matches[k];
     const Eigen::Vector2d& x1 = ii.normalized[m.idx1];
     const Eigen::Vector2d& x2 = ij.normalized[m.idx2];
-    if (!SupportsPose(R, t, E, x1, x2, max_error, angle_cos)) continue;
-    double d1 = 0, d2 = 0;
-    const bool depths = RayDepths(R, t, x1, x2, &d1, &d2) && d1 > 0 && d2 > 0;
-    const int pi = point_i[m.idx1];
-    const int pj = point_j[m.idx2];
-    if (depths && pi >= 0 &&
-        std::abs(d1 * si / model_i.points[pi].z() - 1) >=
-            options.depth_tolerance) {
+    if (!SupportsPose(join.R, unit_t, E, x1, x2, max_error_px / focal,
+                      angle_cos)) {
       continue;
     }
-    if (depths && pj >= 0 &&
-        std::abs(d2 * sj / model_j.points[pj].z() - 1) >=
-            options.depth_tolerance) {
+    const int pi = point_i[m.idx1];
+    const int pj = point_j[m.idx2];
+    if (pi >= 0 && ReprojectionPixels(join.R * model_i.points[pi] + join.t,
+                                      x2, ij.camera.MeanFocal()) >
+                       max_error_px) {
+      continue;
+    }
+    if (pj >= 0 && ReprojectionPixels(j_to_i(model_j.points[pj]), x1,
+                                      ii.camera.MeanFocal()) > max_error_px) {
       continue;
     }
     evidence.consistent[k] = 1;

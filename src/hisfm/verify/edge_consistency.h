@@ -37,9 +37,13 @@ struct EdgeTestOptions {
   double depth_tolerance = 0.1;
   /// Each model must be joined by at least this many agreeing inliers.
   int min_join_points = 5;
-  /// The test speaks (ranks a hypothesis by its contradictions) with at
-  /// least this many unique points.
-  int min_unique_points = 5;
+  /// Refine the join (camera j's pose in model i's frame and model j's
+  /// scale) by robust least squares of the reprojection errors of the
+  /// pair's inliers that are model points, a 3D-to-2D fit that a planar
+  /// scene, ambiguous for the two-view pose, does not degrade.
+  bool refine_join = true;
+  /// Scale (pixels) of the refinement's Cauchy loss.
+  double join_loss_px = 2.0;
   /// When a unique point is predicted visible in the other model's images.
   VisibilityOptions visibility;
   /// Occlusion: a unique point predicted behind the other model's own

@@ -80,7 +80,6 @@ double RelativeWeight(const ViewGraph& graph, const ImagePair& pair) {
 PairFeatures MultiViewVerifier::Features(const ImagePair& pair) {
   PairFeatures f = PairFeatures::FromEvidence(Evaluate(pair));
   f.relative_burstiness = RelativeWeight(ranking_, pair);
-  f.relative_inliers = RelativeWeight(graph_, pair);
   return f;
 }
 

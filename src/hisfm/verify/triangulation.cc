@@ -37,8 +37,12 @@ Eigen::Vector3d TriangulateMultiView(const Rigid3d* cam_from_world,
       Atb -= a * c;
     }
   }
+  // A rank-deficient system (fewer than two distinct rays) has a zero
+  // pivot up to rounding: reject pivots tiny against the largest.
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(AtA);
-  if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+  const Eigen::Vector3d pivots = ldlt.vectorD();
+  if (ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+      !(pivots.minCoeff() > 1e-12 * pivots.maxCoeff())) {
     return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
   return ldlt.solve(Atb);

@@ -11,6 +11,8 @@ namespace hisfm {
 void VerifiedHierarchyOptions::Check() const {
   HISFM_CHECK_OPTION(max_rounds >= 1);
   HISFM_CHECK_OPTION(trusted_threshold >= 0 && trusted_threshold <= 1);
+  HISFM_CHECK_OPTION(support_edges >= 0);
+  HISFM_CHECK_OPTION(support_threshold >= 0 && support_threshold <= 1);
 }
 
 std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
@@ -23,6 +25,50 @@ std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
   }
   for (const ViewGraphEdge& e : hierarchy.leaf_edges) edges.insert(e.pair);
   return {edges.begin(), edges.end()};
+}
+
+void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
+                     int count, double threshold, Hierarchy* hierarchy) {
+  if (count <= 0) return;
+  std::unordered_map<ImageId, size_t> component_of;
+  for (size_t c = 0; c < hierarchy->components.size(); ++c) {
+    for (const ImageId id : hierarchy->components[c].images) {
+      component_of[id] = c;
+    }
+  }
+  std::set<ImagePair> present;
+  for (const ImagePair& p : hierarchy->Edges()) present.insert(p);
+  std::set<ImagePair> added;
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    const ImageId id = graph.Images()[i];
+    auto ci = component_of.find(id);
+    if (ci == component_of.end()) continue;
+    for (const size_t e : StrongestEdges(graph, i, count)) {
+      const ViewGraphEdge& edge = graph.Edges()[e];
+      const ImageId other = graph.OtherEnd(e, id);
+      auto co = component_of.find(other);
+      if (co == component_of.end() || co->second != ci->second ||
+          present.count(edge.pair) || added.count(edge.pair)) {
+        continue;
+      }
+      if (verifier.Score({edge.pair}).front() < threshold) continue;
+      added.insert(edge.pair);
+      hierarchy->support_edges.push_back(edge);
+      HierarchyComponent& comp = hierarchy->components[ci->second];
+      comp.edges.insert(
+          std::lower_bound(comp.edges.begin(), comp.edges.end(), edge.pair),
+          edge.pair);
+      if (std::binary_search(comp.skeleton_images.begin(),
+                             comp.skeleton_images.end(), id) &&
+          std::binary_search(comp.skeleton_images.begin(),
+                             comp.skeleton_images.end(), other)) {
+        comp.skeleton_edges.insert(
+            std::lower_bound(comp.skeleton_edges.begin(),
+                             comp.skeleton_edges.end(), edge.pair),
+            edge.pair);
+      }
+    }
+  }
 }
 
 VerifiedHierarchy BuildVerifiedHierarchy(
@@ -39,7 +85,10 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     std::vector<RejectedTrustedEdge> failing;
     for (const ImagePair& pair : TrustedEdges(out.hierarchy)) {
       const double score = verifier.Score({pair}).front();
-      if (score < options.trusted_threshold) {
+      // Only the test's evidence removes a trusted edge: a pair it could
+      // not judge keeps the trust the paper gives it.
+      if (score < options.trusted_threshold &&
+          verifier.Features(pair).Speaks()) {
         failing.push_back({pair, out.graph.Weight(pair.image_id1,
                                                   pair.image_id2),
                            score, round});
@@ -57,6 +106,8 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     HISFM_LOG_DEBUG("verified hierarchy: round {} rejected {} trusted edges",
                     round, failing.size());
   }
+  AddSupportEdges(out.graph, verifier, options.support_edges,
+                  options.support_threshold, &out.hierarchy);
   if (options.clean_inliers) {
     for (const ImagePair& pair : out.hierarchy.Edges()) {
       std::vector<FeatureMatch> inliers = verifier.ConsistentInliers(pair);

@@ -31,12 +31,24 @@ struct VerifiedHierarchyOptions {
   /// Replace each used edge's inliers by those consistent with the geometry
   /// its test accepted.
   bool clean_inliers = true;
-  /// A trusted edge is rejected when its score falls below this. Trusted
+  /// A trusted edge is rejected when its score falls below this and the
+  /// edge test judged it (PairFeatures::Speaks). Trusted
   /// edges are each image's strongest pairs, true far more often than the
   /// bridges Kruskal meets, so rejecting one needs stronger evidence than
   /// accepting a bridge (the bridges' threshold is
   /// SkeletonOptions::verify_threshold).
-  double trusted_threshold = 0.5;
+  double trusted_threshold = 0.25;
+  /// Each image's this many strongest pairs (in the graph the hierarchy is
+  /// built on) that score at least support_threshold join the edges its
+  /// component is reconstructed from (Hierarchy::support_edges; between two
+  /// skeletal images, the scaffold's too). The paper's hierarchy keeps about
+  /// two edges per image; incremental SfM on weakly textured or planar
+  /// scenes needs more to register every image. 0 adds none.
+  int support_edges = 3;
+  /// Minimum score of a support edge. A support edge adds constraints the
+  /// paper's hierarchy does not have, so it must pass the bridges' test
+  /// (the paper's tau), not the weaker trusted-edge one.
+  double support_threshold = 0.8;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -69,6 +81,12 @@ struct VerifiedHierarchy {
   size_t num_inliers_before = 0;
   size_t num_inliers_after = 0;
 };
+
+/// Adds to `hierarchy` each image's `count` strongest pairs of `graph` that
+/// `verifier` scores at least `threshold`, inside components only (see
+/// VerifiedHierarchyOptions::support_edges).
+void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
+                     int count, double threshold, Hierarchy* hierarchy);
 
 /// The edges of `hierarchy` that the paper trusts without verification:
 /// the communities' top-k edges, the skeleton's intra-community edges and
