@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Installs HiSfM's dependencies from Debian 12 packages and builds it into
-# build/. Safe to run again: apt-get skips what is installed, cmake rebuilds
-# only what changed.
+# build/: the `hisfm` command and the Python module `hisfm` (build/python,
+# for Debian's /usr/bin/python3). Safe to run again: apt-get skips what is
+# installed, cmake rebuilds only what changed.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -11,6 +12,8 @@ PACKAGES=(
   libeigen3-dev libceres-dev libsqlite3-dev sqlite3
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  # The Python module (build/python) and its tests.
+  pybind11-dev python3-dev python3-numpy python3-pytest
   chromium
   # scripts/sanitize.sh: ASan/UBSan build and libFuzzer targets.
   clang libclang-rt-14-dev llvm-14
@@ -35,4 +38,4 @@ fi
 echo "==> Building HiSfM"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release > /dev/null
 cmake --build build -j"$(nproc)"
-echo "==> Built build/hisfm"
+echo "==> Built build/hisfm and build/python (PYTHONPATH=build/python python3 -c 'import hisfm')"

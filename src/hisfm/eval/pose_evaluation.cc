@@ -231,7 +231,10 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
   for (const CommonImage& image : matching.common) {
     model_centers.push_back(image.model_center);
     reference_centers.push_back(image.reference_center);
+    eval.image_names.push_back(image.name);
   }
+  eval.image_center_errors.assign(matching.common.size(), kNaN);
+  eval.image_rotation_errors_deg.assign(matching.common.size(), kNaN);
   eval.reference_extent = PointSetExtent(reference_centers);
   const SimilarityAlignment alignment = AlignSimilarityRobust(
       model_centers, reference_centers, options.alignment);
@@ -250,6 +253,12 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
                            eval.reference_extent;
       center_errors.push_back(static_cast<float>(error));
       sum += error;
+      eval.image_center_errors[i] = error;
+      // cam_from_reference = cam_from_model * model_from_reference.
+      eval.image_rotation_errors_deg[i] = RotationErrorDeg(
+          matching.common[i].model_rotation *
+              alignment.target_from_source.rotation.conjugate(),
+          matching.common[i].reference_rotation);
     }
     eval.median_center_error = Median(center_errors);
     eval.mean_center_error = sum / static_cast<double>(center_errors.size());
@@ -369,6 +378,15 @@ nlohmann::json ToJson(const PoseEvaluation& e) {
          {s.translation.x(), s.translation.y(), s.translation.z()}}};
   }
   j["camera_centers"] = centers;
+  nlohmann::json center_errors = nlohmann::json::array();
+  nlohmann::json rotation_errors = nlohmann::json::array();
+  for (size_t i = 0; i < e.image_names.size(); ++i) {
+    center_errors.push_back(NumberOrNull(e.image_center_errors[i]));
+    rotation_errors.push_back(NumberOrNull(e.image_rotation_errors_deg[i]));
+  }
+  j["per_image"] = {{"names", e.image_names},
+                    {"center_error", center_errors},
+                    {"rotation_error_deg", rotation_errors}};
   j["correct"] = e.correct;
   j["verdict"] = e.correct ? "correct" : "incorrect";
   j["verdict_reason"] = e.verdict_reason;

@@ -83,6 +83,14 @@ struct PoseEvaluation {
   /// Centre errors as fractions of reference_extent (NaN if not aligned).
   double median_center_error = 0.0;
   double mean_center_error = 0.0;
+  /// The commonly registered images, in the model's image id order: the
+  /// order of the per-image errors.
+  std::vector<std::string> image_names;
+  /// Per image, after the alignment: the centre error as a fraction of
+  /// reference_extent, and the rotation error (degrees) of the aligned
+  /// camera (NaN if not aligned).
+  std::vector<double> image_center_errors;
+  std::vector<double> image_rotation_errors_deg;
 
   /// All reference images registered (if required) and enough pairs within
   /// the verdict threshold.

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model_validation.h"
 #include "hisfm/util/timer.h"

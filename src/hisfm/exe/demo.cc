@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
 #include "hisfm/recon/hierarchical_mapper.h"

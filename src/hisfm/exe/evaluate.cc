@@ -1,16 +1,15 @@
 // `hisfm evaluate`: gauge-free pose evaluation of a model against a reference
 // (hisfm/eval/pose_evaluation.h).
 #include <CLI/CLI.hpp>
-#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/retriangulation.h"
@@ -18,36 +17,8 @@
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/interrupt.h"
 
-namespace fs = std::filesystem;
-
 namespace hisfm {
 namespace {
-
-// The model folders that make up the result at `model_path`: the folder
-// itself, all numbered folders beside it if it is one of several, or the
-// numbered folders inside it (a COLMAP `sparse` folder).
-std::vector<std::string> FindModels(const std::string& model_path) {
-  CheckDirectoryExists(model_path, "model");
-  fs::path path = fs::absolute(model_path).lexically_normal();
-  if (path.filename().empty()) path = path.parent_path();  // trailing '/'
-  if (HasModel(path.string())) {
-    // One of several numbered models: all of them.
-    const std::vector<std::string> siblings =
-        NumberedModelFolders(path.parent_path().string());
-    if (siblings.size() > 1 &&
-        std::find(siblings.begin(), siblings.end(), path.string()) !=
-            siblings.end()) {
-      return siblings;
-    }
-    return {path.string()};
-  }
-  const std::vector<std::string> inside = NumberedModelFolders(path.string());
-  ThrowUnless(!inside.empty(),
-              StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
-                     "numbered model folders) in ",
-                     model_path));
-  return inside;
-}
 
 int RunEvaluate(int argc, char** argv) {
   std::string model_path;
@@ -72,38 +43,18 @@ int RunEvaluate(int argc, char** argv) {
       ->required();
   app.add_flag("--json", json, "Print JSON instead of the summary");
   app.add_option("--output_path", output_path, "Also write the JSON here");
-  app.add_option("--verdict_threshold_deg", options.verdict_threshold_deg,
-                 "Pair error threshold of the verdict (degrees)")
-      ->capture_default_str();
-  app.add_option("--min_correct_pair_fraction",
-                 options.min_correct_pair_fraction,
-                 "Fraction of pairs within the threshold needed for "
-                 "'correct'")
-      ->capture_default_str();
-  app.add_option("--require_all_registered", options.require_all_registered,
-                 "'correct' needs every reference image registered")
-      ->capture_default_str();
-  app.add_option("--min_model_size", options.min_model_size,
-                 "Models with at least this many reference images count as "
-                 "parts of an oversplit result")
-      ->capture_default_str()
-      ->check(CLI::Range(0, 1000000));
+  AddPoseEvaluationFlags(app, &options);
   std::string database_path, image_path;
   app.add_option("--database_path", database_path,
                  "Also re-triangulate the largest model's poses from this "
                  "(unfiltered) database: the paper's quality proxy")
       ->needs(app.add_option("--image_path", image_path,
                              "Photo folder for --database_path"));
-  app.add_option("--alignment_inlier_threshold",
-                 options.alignment.inlier_threshold,
-                 "Centre alignment inlier distance, fraction of the scene "
-                 "extent")
-      ->capture_default_str();
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
   options.Check();
-  const std::vector<std::string> model_paths = FindModels(model_path);
+  const std::vector<std::string> model_paths = ResultModelFolders(model_path);
   if (!output_path.empty()) {
     std::vector<std::string> inputs = model_paths;
     inputs.insert(inputs.end(), {reference_path, database_path});
@@ -131,7 +82,7 @@ int RunEvaluate(int argc, char** argv) {
     // Removed however Retriangulate ends.
     const std::unique_ptr<char, void (*)(char*)> remove_work(work, [](char* p) {
       std::error_code ec;
-      fs::remove_all(p, ec);
+      std::filesystem::remove_all(p, ec);
     });
     const RetriangulationStats stats = Retriangulate(
         database_path, image_path, model_paths[evaluation.largest_model], work,

@@ -2,8 +2,8 @@
 #include <CLI/CLI.hpp>
 #include <iostream>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/recon/exhaustive_filter.h"
 
 namespace hisfm {

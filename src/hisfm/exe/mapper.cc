@@ -4,14 +4,14 @@
 #include <fstream>
 #include <iostream>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/recon/hierarchical_mapper.h"
 #include "hisfm/report/report_writer.h"
-#include "hisfm/util/logging.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/interrupt.h"
+#include "hisfm/util/logging.h"
 
 namespace hisfm {
 namespace {
@@ -26,15 +26,7 @@ int RunMapperCommand(int argc, char** argv) {
   MapperPaths paths;
   HierarchicalMapperOptions options;
   std::string log_level = "info";
-  app.add_option("--database_path", paths.database_path, "COLMAP database")
-      ->required();
-  app.add_option("--image_path", paths.image_path, "Folder of the photos")
-      ->required();
-  app.add_option("--output_path", paths.output_path,
-                 "Output folder (missing or empty)")
-      ->required();
-  app.add_option("--work_path", paths.work_path,
-                 "Intermediate files (default OUTPUT_work)");
+  AddMapperPathFlags(app, &paths);
   if (const int code =
           ParseMapperCommand(app, argc, argv, &options, &log_level);
       code >= 0) {

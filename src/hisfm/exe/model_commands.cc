@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/model.h"
 #include "hisfm/report/model_export.h"
 #include "hisfm/util/error.h"

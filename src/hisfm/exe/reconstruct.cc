@@ -7,9 +7,9 @@
 #include <sstream>
 #include <string>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"

@@ -3,8 +3,8 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "hisfm/cli/option_flags.h"
 #include "hisfm/exe/command.h"
-#include "hisfm/exe/option_flags.h"
 #include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"

@@ -215,6 +215,142 @@ std::vector<DatabaseImage> Database::ReadImages() const {
   return images;
 }
 
+namespace {
+
+// A blob of `n` float64 values into `out`; false (and `out` unchanged) if
+// the column is NULL or of another size.
+template <typename Matrix>
+bool ReadDoubles(sqlite3_stmt* stmt, int col, Matrix* out) {
+  const std::vector<double> v = ReadBlob<double>(stmt, col);
+  if (v.size() != static_cast<size_t>(out->size())) return false;
+  // COLMAP writes Eigen's storage order (column-major).
+  std::memcpy(out->data(), v.data(), v.size() * sizeof(double));
+  return true;
+}
+
+}  // namespace
+
+std::string DatabaseLayout::OldestRelease() const {
+  if (pose_prior_ids || descriptor_type) return "4.0";
+  if (rigs_and_frames) return "3.12";
+  if (position_covariance) return "3.11";
+  if (pose_priors) return "3.10";
+  return "3.8";
+}
+
+DatabaseLayout Database::Layout() const {
+  DatabaseLayout layout;
+  layout.image_prior_columns = SqliteHasColumn(db_, "images", "prior_qw");
+  layout.pose_priors = SqliteHasTable(db_, "pose_priors");
+  layout.position_covariance =
+      SqliteHasColumn(db_, "pose_priors", "position_covariance");
+  layout.pose_prior_ids = SqliteHasColumn(db_, "pose_priors", "pose_prior_id");
+  layout.rigs_and_frames =
+      SqliteHasTable(db_, "rigs") && SqliteHasTable(db_, "rig_sensors") &&
+      SqliteHasTable(db_, "frames") && SqliteHasTable(db_, "frame_data");
+  layout.descriptor_type = SqliteHasColumn(db_, "descriptors", "type");
+  SqliteStatement version(db_, "PRAGMA user_version");
+  if (version.Step()) layout.user_version = sqlite3_column_int(version.get(), 0);
+  return layout;
+}
+
+std::vector<DatabasePosePrior> Database::ReadPosePriors() const {
+  const DatabaseLayout layout = Layout();
+  std::vector<DatabasePosePrior> priors;
+  if (!layout.pose_priors) return priors;
+  const std::string covariance =
+      layout.position_covariance ? "position_covariance" : "NULL";
+  // 4.0: one row per sensor; an image's prior is its camera's (type 0).
+  const std::string sql =
+      layout.pose_prior_ids
+          ? "SELECT corr_data_id, position, position_covariance, "
+            "coordinate_system, gravity FROM pose_priors WHERE "
+            "corr_sensor_type = 0 ORDER BY corr_data_id"
+          : StrCat("SELECT image_id, position, ", covariance,
+                   ", coordinate_system, NULL FROM pose_priors ORDER BY "
+                   "image_id");
+  SqliteStatement stmt(db_, sql);
+  while (stmt.Step()) {
+    DatabasePosePrior p;
+    p.image_id = static_cast<ImageId>(sqlite3_column_int64(stmt.get(), 0));
+    ReadDoubles(stmt.get(), 1, &p.position);
+    ReadDoubles(stmt.get(), 2, &p.position_covariance);
+    p.coordinate_system = sqlite3_column_int(stmt.get(), 3);
+    ReadDoubles(stmt.get(), 4, &p.gravity);
+    priors.push_back(p);
+  }
+  return priors;
+}
+
+std::vector<Rig> Database::ReadRigs() const {
+  std::vector<Rig> rigs;
+  if (!Layout().rigs_and_frames) return rigs;
+  SqliteStatement stmt(db_,
+                       "SELECT rig_id, ref_sensor_id, ref_sensor_type FROM "
+                       "rigs ORDER BY rig_id");
+  std::unordered_map<uint32_t, size_t> index;
+  while (stmt.Step()) {
+    Rig rig;
+    rig.rig_id = static_cast<uint32_t>(sqlite3_column_int64(stmt.get(), 0));
+    rig.ref_sensor = SensorId{
+        static_cast<SensorType>(sqlite3_column_int(stmt.get(), 2)),
+        static_cast<uint32_t>(sqlite3_column_int64(stmt.get(), 1))};
+    index[rig.rig_id] = rigs.size();
+    rigs.push_back(std::move(rig));
+  }
+  SqliteStatement sensors(db_,
+                          "SELECT rig_id, sensor_id, sensor_type, "
+                          "sensor_from_rig FROM rig_sensors ORDER BY rowid");
+  while (sensors.Step()) {
+    const auto it = index.find(
+        static_cast<uint32_t>(sqlite3_column_int64(sensors.get(), 0)));
+    if (it == index.end()) continue;
+    RigSensor sensor;
+    sensor.sensor = SensorId{
+        static_cast<SensorType>(sqlite3_column_int(sensors.get(), 2)),
+        static_cast<uint32_t>(sqlite3_column_int64(sensors.get(), 1))};
+    Eigen::Matrix<double, 7, 1> pose;
+    if (ReadDoubles(sensors.get(), 3, &pose)) {
+      sensor.sensor_from_rig = Rigid3d(
+          Eigen::Quaterniond(pose(0), pose(1), pose(2), pose(3)),
+          pose.tail<3>());
+    }
+    rigs[it->second].sensors.push_back(sensor);
+  }
+  return rigs;
+}
+
+std::vector<Frame> Database::ReadFrames() const {
+  std::vector<Frame> frames;
+  if (!Layout().rigs_and_frames) return frames;
+  SqliteStatement stmt(db_,
+                       "SELECT frame_id, rig_id FROM frames ORDER BY "
+                       "frame_id");
+  std::unordered_map<uint32_t, size_t> index;
+  while (stmt.Step()) {
+    Frame frame;
+    frame.frame_id = static_cast<uint32_t>(sqlite3_column_int64(stmt.get(), 0));
+    frame.rig_id = static_cast<uint32_t>(sqlite3_column_int64(stmt.get(), 1));
+    index[frame.frame_id] = frames.size();
+    frames.push_back(std::move(frame));
+  }
+  SqliteStatement data(db_,
+                       "SELECT frame_id, data_id, sensor_id, sensor_type FROM "
+                       "frame_data ORDER BY rowid");
+  while (data.Step()) {
+    const auto it = index.find(
+        static_cast<uint32_t>(sqlite3_column_int64(data.get(), 0)));
+    if (it == index.end()) continue;
+    FrameData d;
+    d.data_id = static_cast<uint64_t>(sqlite3_column_int64(data.get(), 1));
+    d.sensor = SensorId{
+        static_cast<SensorType>(sqlite3_column_int(data.get(), 3)),
+        static_cast<uint32_t>(sqlite3_column_int64(data.get(), 2))};
+    frames[it->second].data.push_back(d);
+  }
+  return frames;
+}
+
 size_t Database::NumVerifiedPairs(uint32_t min_num_inliers) const {
   SqliteStatement stmt(
       db_, "SELECT count(*) FROM two_view_geometries WHERE rows >= ?");
@@ -648,36 +784,68 @@ void WriteFilteredDatabase(const std::string& source_path,
     throw Error(StrCat("cannot create database ", output_path));
   }
   try {
-    for (const std::string& sql : ColmapSchemaStatements()) SqliteExec(db, sql);
     // Attach the source read-only through a URI so it can never be written.
     SqliteExec(db, "ATTACH DATABASE " + SqliteQuote(ReadOnlyUri(source_path)) +
                        " AS src;");
+    // The source's tables, then its indexes, as it created them: the colmap
+    // that wrote it reads the copy as it reads the source.
+    std::vector<std::string> tables;
+    {
+      std::vector<std::string> schema;
+      SqliteStatement stmt(
+          db,
+          "SELECT type, name, sql FROM src.sqlite_master WHERE sql IS NOT "
+          "NULL AND type IN ('table', 'index') AND name NOT LIKE 'sqlite_%' "
+          "AND sql NOT LIKE 'CREATE VIRTUAL%' ORDER BY type = 'index', rowid");
+      while (stmt.Step()) {
+        const std::string type =
+            reinterpret_cast<const char*>(sqlite3_column_text(stmt.get(), 0));
+        if (type == "table") {
+          tables.push_back(reinterpret_cast<const char*>(
+              sqlite3_column_text(stmt.get(), 1)));
+        }
+        schema.push_back(
+            reinterpret_cast<const char*>(sqlite3_column_text(stmt.get(), 2)));
+      }
+      for (const std::string& sql : schema) SqliteExec(db, sql + ";");
+    }
+    // COLMAP 3.8's tables the source lacks (descriptors and matches may be
+    // absent: COLMAP's mapper does not read them).
+    for (const std::string& sql : ColmapSchemaStatements()) SqliteExec(db, sql);
+    {
+      SqliteStatement version(db, "PRAGMA src.user_version");
+      const int user_version =
+          version.Step() ? sqlite3_column_int(version.get(), 0) : 0;
+      SqliteExec(db, StrCat("PRAGMA main.user_version = ", user_version, ";"));
+    }
     SqliteExec(db, "BEGIN;");
-    // Copies the columns of COLMAP 3.8's `table` that the source's has
-    // (other versions add or drop some, e.g. the images' priors), rows
-    // chosen by `where`. descriptors and matches may be absent from the
-    // source (COLMAP's mapper does not read them); the copy has COLMAP's
-    // whole schema.
-    auto copy = [&](const char* table, const std::string& where) {
+    // Copies the columns of `table` in both (all of them, the schema being
+    // the source's), rows chosen by `where`.
+    auto copy = [&](const std::string& table, const std::string& where) {
       std::string columns;
       SqliteStatement info(
-          db, StrCat("SELECT name FROM pragma_table_info('", table,
-                     "', 'main') WHERE name IN (SELECT name FROM "
-                     "pragma_table_info('",
-                     table, "', 'src')) ORDER BY cid"));
+          db, StrCat("SELECT name FROM pragma_table_info(", SqliteQuote(table),
+                     ", 'main') WHERE name IN (SELECT name FROM "
+                     "pragma_table_info(",
+                     SqliteQuote(table), ", 'src')) ORDER BY cid"));
       while (info.Step()) {
         // COLMAP's column names: plain identifiers, quoted all the same.
         if (!columns.empty()) columns += ", ";
-        columns += StrCat("\"", sqlite3_column_text(info.get(), 0), "\"");
+        columns += SqliteQuoteIdentifier(
+            reinterpret_cast<const char*>(sqlite3_column_text(info.get(), 0)));
       }
       if (columns.empty()) return;  // No such table in the source.
-      SqliteExec(db, StrCat("INSERT INTO main.", table, " (", columns,
-                            ") SELECT ", columns, " FROM src.", table, where,
-                            ";"));
+      SqliteExec(db, StrCat("INSERT INTO main.", SqliteQuoteIdentifier(table), " (",
+                            columns, ") SELECT ", columns, " FROM src.",
+                            SqliteQuoteIdentifier(table), where, ";"));
     };
-    copy("cameras", "");
-    copy("images", "");
-    copy("keypoints", "");
+    // Every table but the pair tables and the descriptors, whole.
+    for (const std::string& table : tables) {
+      if (table != "two_view_geometries" && table != "matches" &&
+          table != "descriptors") {
+        copy(table, "");
+      }
+    }
     if (options.copy_descriptors) copy("descriptors", "");
     SqliteExec(db, "CREATE TEMP TABLE keep_pairs (pair_id INTEGER PRIMARY KEY);");
     {

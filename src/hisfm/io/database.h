@@ -1,4 +1,5 @@
-// Read-only access to a COLMAP 3.8 database (SQLite).
+// Read-only access to a COLMAP database (SQLite), as written by COLMAP 3.8
+// to 4.1.
 //
 // Format (COLMAP 3.8, src/base/database.cc):
 //   cameras(camera_id, model, width, height, params BLOB of float64,
@@ -16,15 +17,33 @@
 // the first column indexing the image with the smaller id. `rows` of a
 // two_view_geometries row is its number of inliers. Keypoint coordinates use
 // COLMAP's convention: the centre of the upper-left pixel is (0.5, 0.5).
+//
+// Later releases (src/colmap/scene/database.cc, from 3.13
+// database_sqlite.cc; DatabaseLayout tells them apart):
+//   3.10: images lose their prior_* columns; pose_priors(image_id, position
+//         BLOB 3 float64, coordinate_system);
+//   3.11: pose_priors.position_covariance (BLOB 9 float64);
+//   3.12: rigs(rig_id, ref_sensor_id, ref_sensor_type), rig_sensors(rig_id,
+//         sensor_id, sensor_type, sensor_from_rig BLOB 7 float64 qw qx qy qz
+//         tx ty tz), frames(frame_id, rig_id), frame_data(frame_id, data_id,
+//         sensor_id, sensor_type);
+//   4.0:  pose_priors(pose_prior_id, corr_data_id, corr_sensor_id,
+//         corr_sensor_type, position, position_covariance, gravity,
+//         coordinate_system); descriptors.type (0 SIFT; ALIKED rows are its
+//         float32 descriptors as bytes); unknown F, E, H, qvec and tvec are
+//         NULL (read as zero), and a verified pair may have no inliers.
+// The tables and columns hisfm reads have the same meaning in every release.
 #pragma once
 
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "hisfm/io/rigs.h"
 #include "hisfm/util/types.h"
 
 struct sqlite3;
@@ -45,6 +64,48 @@ struct DatabaseCamera {
 /// (pixels), principal point at the image centre.
 DatabaseCamera SimplePinholeCamera(CameraId camera_id, uint64_t width,
                                    uint64_t height, double focal_length);
+
+/// The optional tables and columns of a database, which differ between the
+/// COLMAP releases that wrote it (see the top of this file).
+struct DatabaseLayout {
+  /// images.prior_qw ... prior_tz (3.8, 3.9).
+  bool image_prior_columns = false;
+  /// A pose_priors table (3.10 and later).
+  bool pose_priors = false;
+  /// pose_priors.position_covariance (3.11 and later).
+  bool position_covariance = false;
+  /// pose_priors keyed by pose_prior_id, with corr_data_id, corr_sensor_id,
+  /// corr_sensor_type and gravity (4.0 and later).
+  bool pose_prior_ids = false;
+  /// rigs, rig_sensors, frames and frame_data tables (3.12 and later).
+  bool rigs_and_frames = false;
+  /// descriptors.type (4.0 and later).
+  bool descriptor_type = false;
+  /// PRAGMA user_version (3.9 to 3.12 write 3900; later releases encode
+  /// their version).
+  int user_version = 0;
+
+  /// The oldest COLMAP release that writes this layout ("3.8", "3.10",
+  /// "3.11", "3.12" or "4.0").
+  std::string OldestRelease() const;
+};
+
+/// A position prior of an image (`pose_priors`, 3.10 and later). Values
+/// COLMAP leaves unknown are NaN.
+struct DatabasePosePrior {
+  /// The image it belongs to (4.0: corr_data_id of a camera sensor).
+  ImageId image_id = kInvalidImageId;
+  Eigen::Vector3d position =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Matrix3d position_covariance =
+      Eigen::Matrix3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// COLMAP's PosePrior::CoordinateSystem: -1 undefined, 0 WGS84,
+  /// 1 Cartesian.
+  int coordinate_system = -1;
+  /// The gravity direction in the camera frame (4.0 and later).
+  Eigen::Vector3d gravity =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+};
 
 /// A row of the `images` table (priors are not used by HiSfM).
 struct DatabaseImage {
@@ -142,8 +203,21 @@ class Database {
 
   const std::string& path() const { return path_; }
 
+  /// Every camera, by id.
   std::vector<DatabaseCamera> ReadCameras() const;
+  /// Every image, by id.
   std::vector<DatabaseImage> ReadImages() const;
+  /// Which optional tables and columns the file has.
+  DatabaseLayout Layout() const;
+  /// Every position prior, by image id (empty before 3.10; the image prior
+  /// columns of 3.8 and 3.9 are not read). 4.0 priors of other sensors than
+  /// cameras are left out.
+  std::vector<DatabasePosePrior> ReadPosePriors() const;
+  /// Every rig, by id, with its sensors (empty before 3.12).
+  std::vector<Rig> ReadRigs() const;
+  /// Every frame, by id, with its data (empty before 3.12; databases hold no
+  /// frame poses).
+  std::vector<Frame> ReadFrames() const;
   /// Number of rows in `two_view_geometries` with at least `min_num_inliers`.
   size_t NumVerifiedPairs(uint32_t min_num_inliers = 1) const;
   /// Every verified pair with at least `min_num_inliers` inliers, sorted by
@@ -234,10 +308,13 @@ struct FilteredDatabaseOptions {
   void Check() const {}
 };
 
-/// Writes a new COLMAP database at `output_path` with the source's cameras,
-/// images and keypoints, and only the `keep` pairs of two_view_geometries
-/// (and matches, optionally). The source is attached read-only; the output is
-/// written to a temporary file and renamed into place.
+/// Writes a new COLMAP database at `output_path` in the source's own schema
+/// (its tables, indexes and user_version, plus any COLMAP 3.8 table it
+/// lacks), with every row of every table but these: only the `keep` pairs of
+/// two_view_geometries, and no descriptors or matches unless asked (then
+/// only the kept pairs' matches). Newer releases' tables (pose priors, rigs,
+/// frames) thus reach colmap unchanged. The source is attached read-only;
+/// the output is written to a temporary file and renamed into place.
 void WriteFilteredDatabase(const std::string& source_path,
                            const std::string& output_path,
                            const std::vector<ImagePair>& keep,

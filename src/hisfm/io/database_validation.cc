@@ -189,7 +189,7 @@ void CheckCameras(sqlite3* db, ProblemList* out,
     if (num_params < 0) {
       out->Add(kTable, id,
                StrCat("model ", ValueText(s, 2),
-                      " is not a COLMAP camera model (0-10)"));
+                      " is not a COLMAP camera model (0-17)"));
     }
     for (int col : {3, 4}) {
       const int64_t size = sqlite3_column_int64(s, col);
@@ -298,8 +298,9 @@ void CheckImages(sqlite3* db, const std::unordered_set<int64_t>* camera_ids,
 // keypoints and descriptors
 
 // Checks the rows, cols and blob of a feature row (columns 1-5 of `s`:
-// image_id, rows, cols, typeof(data), length(data)). Returns the row count,
-// or -1 after reporting a problem.
+// image_id, rows, cols, typeof(data), length(data)); `allowed_cols` empty
+// allows any positive cols. Returns the row count, or -1 after reporting a
+// problem.
 int64_t CheckFeatureRow(sqlite3_stmt* s, const char* table, const char* id,
                         std::initializer_list<int64_t> allowed_cols,
                         int element_bytes, const char* element,
@@ -310,8 +311,17 @@ int64_t CheckFeatureRow(sqlite3_stmt* s, const char* table, const char* id,
     out->Add(table, id, StrCat("rows ", ValueText(s, 2), " is not a count"));
     return -1;
   }
-  if (!IsInteger(s, 3) || std::find(allowed_cols.begin(), allowed_cols.end(),
-                                    cols) == allowed_cols.end()) {
+  const bool cols_ok =
+      allowed_cols.size() == 0
+          ? cols > 0
+          : std::find(allowed_cols.begin(), allowed_cols.end(), cols) !=
+                allowed_cols.end();
+  if (!IsInteger(s, 3) || !cols_ok) {
+    if (allowed_cols.size() == 0) {
+      out->Add(table, id,
+               StrCat("cols ", ValueText(s, 3), " is not a positive count"));
+      return -1;
+    }
     std::string allowed;
     for (const int64_t c : allowed_cols) {
       allowed += allowed.empty() ? "" : " or ";
@@ -392,9 +402,13 @@ void CheckKeypoints(sqlite3* db, ProblemList* out, KeypointCounts* images) {
 void CheckDescriptors(sqlite3* db, const KeypointCounts& images,
                       ProblemList* out) {
   const char* kTable = "descriptors";
-  SqliteStatement stmt(db,
-                       "SELECT rowid, image_id, rows, cols, typeof(data), "
-                       "length(data) FROM descriptors ORDER BY rowid");
+  // COLMAP 4.0 added the extractor type (0 SIFT: 128 bytes a row; ALIKED
+  // stores its float descriptors as bytes, of its own width).
+  const bool has_type = SqliteHasColumn(db, kTable, "type");
+  SqliteStatement stmt(
+      db, StrCat("SELECT rowid, image_id, rows, cols, typeof(data), "
+                 "length(data), ",
+                 has_type ? "type" : "0", " FROM descriptors ORDER BY rowid"));
   sqlite3_stmt* s = stmt.get();
   int64_t previous = 0;
   bool first = true;
@@ -414,8 +428,10 @@ void CheckDescriptors(sqlite3* db, const KeypointCounts& images,
                "images table");
       continue;
     }
+    const bool sift = sqlite3_column_int64(s, 6) == 0;
     const int64_t rows =
-        CheckFeatureRow(s, kTable, id.c_str(), {128}, 1, "bytes", out);
+        sift ? CheckFeatureRow(s, kTable, id.c_str(), {128}, 1, "bytes", out)
+             : CheckFeatureRow(s, kTable, id.c_str(), {}, 1, "bytes", out);
     if (rows < 0 || image->second == kBadKeypointRow) continue;
     const int64_t num_keypoints = std::max<int64_t>(0, image->second);
     if (rows != num_keypoints) {
@@ -673,13 +689,6 @@ bool IsIntegerPrimaryKey(sqlite3* db, const char* table, const char* column) {
   return found && num_key_columns == 1;
 }
 
-bool HasTable(sqlite3* db, const char* name) {
-  SqliteStatement stmt(
-      db, "SELECT count(*) FROM sqlite_master WHERE type='table' AND name=?");
-  sqlite3_bind_text(stmt.get(), 1, name, -1, SQLITE_STATIC);
-  return stmt.Step() && sqlite3_column_int(stmt.get(), 0) > 0;
-}
-
 }  // namespace
 
 std::vector<DatabaseProblem> ValidateDatabase(
@@ -737,7 +746,7 @@ std::vector<DatabaseProblem> ValidateDatabase(
         if (count == kNoKeypointRow) count = kBadKeypointRow;
       }
     }
-    if (HasTable(db, "descriptors") && keyed("descriptors", "image_id")) {
+    if (SqliteHasTable(db, "descriptors") && keyed("descriptors", "image_id")) {
       Guarded(db, "descriptors", &out,
               [&] { CheckDescriptors(db, images, &out); });
     }
@@ -745,7 +754,7 @@ std::vector<DatabaseProblem> ValidateDatabase(
   }
   std::vector<PairTable> tables = {
       {"two_view_geometries", true, "verified pairs"}};
-  if (options.check_matches && HasTable(db, "matches")) {
+  if (options.check_matches && SqliteHasTable(db, "matches")) {
     tables.push_back({"matches", false, "matches"});
   }
   for (const PairTable& table : tables) {

@@ -27,8 +27,12 @@ struct CameraModelInfo {
   int num_focal_lengths;
 };
 
-// COLMAP 3.8, src/base/camera_models.h (CAMERA_MODEL_DEFINITIONS).
-constexpr std::array<CameraModelInfo, 11> kCameraModels = {{
+// COLMAP's camera models (3.8: src/base/camera_models.h; later
+// src/colmap/sensor/models.h, CAMERA_MODEL_DEFINITIONS): ids 0-10 in every
+// release, 11 from 3.11, 12-15 from 4.0, 16-17 from 4.1. Ids are never
+// reused, so one table reads every release's files. EQUIRECTANGULAR has no
+// focal length: its two parameters are metadata (the panorama's size).
+constexpr std::array<CameraModelInfo, 18> kCameraModels = {{
     {0, "SIMPLE_PINHOLE", 3, 1},
     {1, "PINHOLE", 4, 2},
     {2, "SIMPLE_RADIAL", 4, 1},
@@ -40,6 +44,13 @@ constexpr std::array<CameraModelInfo, 11> kCameraModels = {{
     {8, "SIMPLE_RADIAL_FISHEYE", 4, 1},
     {9, "RADIAL_FISHEYE", 5, 1},
     {10, "THIN_PRISM_FISHEYE", 12, 2},
+    {11, "RAD_TAN_THIN_PRISM_FISHEYE", 16, 2},
+    {12, "SIMPLE_DIVISION", 4, 1},
+    {13, "DIVISION", 5, 2},
+    {14, "SIMPLE_FISHEYE", 3, 1},
+    {15, "FISHEYE", 4, 2},
+    {16, "EUCM", 6, 2},
+    {17, "EQUIRECTANGULAR", 2, 0},
 }};
 
 std::string JoinPath(const std::string& folder, const std::string& file) {
@@ -484,12 +495,292 @@ void ReadPoints3DText(const std::string& path, Reconstruction* model) {
   }
 }
 
+// ---------------------------------------------------------------------------
+// Rigs and frames (COLMAP 3.12 and later).
+
+Rigid3d ReadPoseBinary(BinaryReader* in) {
+  double v[7];
+  for (double& x : v) x = in->Read<double>();
+  return Rigid3d(Eigen::Quaterniond(v[0], v[1], v[2], v[3]),
+                 Eigen::Vector3d(v[4], v[5], v[6]));
+}
+
+void WritePoseBinary(const Rigid3d& pose, BinaryWriter* out) {
+  const Eigen::Quaterniond& q = pose.rotation;
+  for (const double x : {q.w(), q.x(), q.y(), q.z(), pose.translation.x(),
+                         pose.translation.y(), pose.translation.z()}) {
+    out->Write<double>(x);
+  }
+}
+
+SensorId ReadSensorBinary(BinaryReader* in) {
+  SensorId sensor;
+  sensor.type = static_cast<SensorType>(in->Read<int32_t>());
+  sensor.id = in->Read<uint32_t>();
+  return sensor;
+}
+
+std::vector<Rig> ReadRigsBinary(const std::string& path) {
+  BinaryReader in = OpenBinary(path);
+  const uint64_t num_rigs = in.ReadCount(8);
+  std::vector<Rig> rigs(num_rigs);
+  for (Rig& rig : rigs) {
+    rig.rig_id = in.Read<uint32_t>();
+    const uint32_t num_sensors = in.Read<uint32_t>();
+    if (num_sensors == 0) continue;
+    rig.ref_sensor = ReadSensorBinary(&in);
+    for (uint32_t k = 1; k < num_sensors; ++k) {
+      RigSensor sensor;
+      sensor.sensor = ReadSensorBinary(&in);
+      if (in.Read<uint8_t>() != 0) sensor.sensor_from_rig = ReadPoseBinary(&in);
+      rig.sensors.push_back(sensor);
+    }
+  }
+  in.ExpectEnd();
+  return rigs;
+}
+
+std::vector<Frame> ReadFramesBinary(const std::string& path) {
+  BinaryReader in = OpenBinary(path);
+  const uint64_t num_frames = in.ReadCount(8 + 56 + 4);
+  std::vector<Frame> frames(num_frames);
+  for (Frame& frame : frames) {
+    frame.frame_id = in.Read<uint32_t>();
+    frame.rig_id = in.Read<uint32_t>();
+    frame.rig_from_world = ReadPoseBinary(&in);
+    const uint32_t num_data = in.Read<uint32_t>();
+    for (uint32_t k = 0; k < num_data; ++k) {
+      FrameData data;
+      data.sensor = ReadSensorBinary(&in);
+      data.data_id = in.Read<uint64_t>();
+      frame.data.push_back(data);
+    }
+  }
+  in.ExpectEnd();
+  return frames;
+}
+
+std::string RigsBinary(const std::vector<Rig>& rigs) {
+  BinaryWriter out;
+  out.Write<uint64_t>(rigs.size());
+  for (const Rig& rig : rigs) {
+    out.Write<uint32_t>(rig.rig_id);
+    if (!rig.ref_sensor) {
+      out.Write<uint32_t>(0);
+      continue;
+    }
+    out.Write<uint32_t>(static_cast<uint32_t>(rig.sensors.size() + 1));
+    out.Write<int32_t>(static_cast<int32_t>(rig.ref_sensor->type));
+    out.Write<uint32_t>(rig.ref_sensor->id);
+    for (const RigSensor& sensor : rig.sensors) {
+      out.Write<int32_t>(static_cast<int32_t>(sensor.sensor.type));
+      out.Write<uint32_t>(sensor.sensor.id);
+      out.Write<uint8_t>(sensor.sensor_from_rig ? 1 : 0);
+      if (sensor.sensor_from_rig) WritePoseBinary(*sensor.sensor_from_rig, &out);
+    }
+  }
+  return out.data();
+}
+
+std::string FramesBinary(const std::vector<Frame>& frames) {
+  BinaryWriter out;
+  size_t num_posed = 0;
+  for (const Frame& frame : frames) num_posed += frame.rig_from_world ? 1 : 0;
+  out.Write<uint64_t>(num_posed);
+  for (const Frame& frame : frames) {
+    // COLMAP writes the frames that have a pose.
+    if (!frame.rig_from_world) continue;
+    out.Write<uint32_t>(frame.frame_id);
+    out.Write<uint32_t>(frame.rig_id);
+    WritePoseBinary(*frame.rig_from_world, &out);
+    out.Write<uint32_t>(static_cast<uint32_t>(frame.data.size()));
+    for (const FrameData& data : frame.data) {
+      out.Write<int32_t>(static_cast<int32_t>(data.sensor.type));
+      out.Write<uint32_t>(data.sensor.id);
+      out.Write<uint64_t>(data.data_id);
+    }
+  }
+  return out.data();
+}
+
+// The items of a data line of rigs.txt or frames.txt, read in order.
+class TextItems {
+ public:
+  TextItems(const TextReader& in, std::string_view line)
+      : in_(in), items_(SplitSpaces(line)) {}
+  std::string_view Next() {
+    if (next_ >= items_.size()) in_.Fail("line ends too early");
+    return items_[next_++];
+  }
+  template <typename Int>
+  Int NextInt() {
+    return in_.ParseInt<Int>(Next());
+  }
+  double NextDouble() { return in_.ParseDouble(Next()); }
+  SensorId Sensor() {
+    SensorId sensor;
+    const std::string_view name = Next();
+    try {
+      sensor.type = SensorTypeFromName(std::string(name));
+    } catch (const Error& e) {
+      in_.Fail(e.what());
+    }
+    sensor.id = NextInt<uint32_t>();
+    return sensor;
+  }
+  Rigid3d Pose() {
+    double v[7];
+    for (double& x : v) x = NextDouble();
+    return Rigid3d(Eigen::Quaterniond(v[0], v[1], v[2], v[3]),
+                   Eigen::Vector3d(v[4], v[5], v[6]));
+  }
+  void ExpectEnd() const {
+    if (next_ != items_.size()) in_.Fail("unexpected values at the end");
+  }
+
+ private:
+  const TextReader& in_;
+  std::vector<std::string_view> items_;
+  size_t next_ = 0;
+};
+
+std::vector<Rig> ReadRigsText(const std::string& path) {
+  TextReader in(path);
+  std::vector<Rig> rigs;
+  std::string_view line;
+  while (in.NextDataLine(&line)) {
+    TextItems items(in, line);
+    Rig rig;
+    rig.rig_id = items.NextInt<uint32_t>();
+    const uint64_t num_sensors = items.NextInt<uint64_t>();
+    if (num_sensors > 0) rig.ref_sensor = items.Sensor();
+    for (uint64_t k = 1; k < num_sensors; ++k) {
+      RigSensor sensor;
+      sensor.sensor = items.Sensor();
+      if (items.NextInt<int>() == 1) sensor.sensor_from_rig = items.Pose();
+      rig.sensors.push_back(sensor);
+    }
+    items.ExpectEnd();
+    rigs.push_back(std::move(rig));
+  }
+  return rigs;
+}
+
+std::vector<Frame> ReadFramesText(const std::string& path) {
+  TextReader in(path);
+  std::vector<Frame> frames;
+  std::string_view line;
+  while (in.NextDataLine(&line)) {
+    TextItems items(in, line);
+    Frame frame;
+    frame.frame_id = items.NextInt<uint32_t>();
+    frame.rig_id = items.NextInt<uint32_t>();
+    frame.rig_from_world = items.Pose();
+    const uint32_t num_data = items.NextInt<uint32_t>();
+    for (uint32_t k = 0; k < num_data; ++k) {
+      FrameData data;
+      data.sensor = items.Sensor();
+      data.data_id = items.NextInt<uint64_t>();
+      frame.data.push_back(data);
+    }
+    items.ExpectEnd();
+    frames.push_back(std::move(frame));
+  }
+  return frames;
+}
+
+void AppendPoseText(const Rigid3d& pose, std::string* out) {
+  const Eigen::Quaterniond& q = pose.rotation;
+  for (const double x : {q.w(), q.x(), q.y(), q.z(), pose.translation.x(),
+                         pose.translation.y(), pose.translation.z()}) {
+    AppendDouble(x, out);
+    *out += ' ';
+  }
+}
+
+std::string RigsText(std::vector<Rig> rigs) {
+  std::sort(rigs.begin(), rigs.end(),
+            [](const Rig& a, const Rig& b) { return a.rig_id < b.rig_id; });
+  std::string out =
+      "# Rig calib list with one line of data per calib:\n"
+      "#   RIG_ID, NUM_SENSORS, REF_SENSOR_TYPE, REF_SENSOR_ID, SENSORS[] as "
+      "(SENSOR_TYPE, SENSOR_ID, HAS_POSE, [QW, QX, QY, QZ, TX, TY, TZ])\n"
+      "# Number of rigs: ";
+  AppendInt(rigs.size(), &out);
+  out += '\n';
+  for (const Rig& rig : rigs) {
+    std::string line;
+    AppendInt(rig.rig_id, &line);
+    line += ' ';
+    AppendInt(rig.ref_sensor ? rig.sensors.size() + 1 : 0, &line);
+    line += ' ';
+    if (rig.ref_sensor) {
+      line += SensorTypeName(rig.ref_sensor->type) + ' ';
+      AppendInt(rig.ref_sensor->id, &line);
+      line += ' ';
+      for (const RigSensor& sensor : rig.sensors) {
+        line += SensorTypeName(sensor.sensor.type) + ' ';
+        AppendInt(sensor.sensor.id, &line);
+        line += sensor.sensor_from_rig ? " 1 " : " 0 ";
+        if (sensor.sensor_from_rig) AppendPoseText(*sensor.sensor_from_rig, &line);
+      }
+    }
+    // COLMAP drops the last space.
+    line.pop_back();
+    out += line + '\n';
+  }
+  return out;
+}
+
+std::string FramesText(std::vector<Frame> frames) {
+  frames.erase(std::remove_if(frames.begin(), frames.end(),
+                              [](const Frame& f) { return !f.rig_from_world; }),
+               frames.end());
+  std::sort(frames.begin(), frames.end(), [](const Frame& a, const Frame& b) {
+    return a.frame_id < b.frame_id;
+  });
+  std::string out =
+      "# Frame list with one line of data per frame:\n"
+      "#   FRAME_ID, RIG_ID, RIG_FROM_WORLD[QW, QX, QY, QZ, TX, TY, TZ], "
+      "NUM_DATA_IDS, DATA_IDS[] as (SENSOR_TYPE, SENSOR_ID, DATA_ID)\n"
+      "# Number of frames: ";
+  AppendInt(frames.size(), &out);
+  out += '\n';
+  for (const Frame& frame : frames) {
+    AppendInt(frame.frame_id, &out);
+    out += ' ';
+    AppendInt(frame.rig_id, &out);
+    out += ' ';
+    AppendPoseText(*frame.rig_from_world, &out);
+    AppendInt(frame.data.size(), &out);
+    for (const FrameData& data : frame.data) {
+      out += ' ' + SensorTypeName(data.sensor.type) + ' ';
+      AppendInt(data.sensor.id, &out);
+      out += ' ';
+      AppendInt(data.data_id, &out);
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+bool ExistsFile(const std::string& path) {
+  std::error_code ec;
+  return fs::is_regular_file(path, ec);
+}
+
 Reconstruction ReadModelBinaryFiles(const std::string& path) {
   CheckDirectoryExists(path, "COLMAP model");
   Reconstruction model;
   ReadCamerasBinary(JoinPath(path, "cameras.bin"), &model);
   ReadImagesBinary(JoinPath(path, "images.bin"), &model);
   ReadPoints3DBinary(JoinPath(path, "points3D.bin"), &model);
+  if (ExistsFile(JoinPath(path, "rigs.bin"))) {
+    model.rigs = ReadRigsBinary(JoinPath(path, "rigs.bin"));
+  }
+  if (ExistsFile(JoinPath(path, "frames.bin"))) {
+    model.frames = ReadFramesBinary(JoinPath(path, "frames.bin"));
+  }
   return model;
 }
 
@@ -499,16 +790,17 @@ Reconstruction ReadModelTextFiles(const std::string& path) {
   ReadCamerasText(JoinPath(path, "cameras.txt"), &model);
   ReadImagesText(JoinPath(path, "images.txt"), &model);
   ReadPoints3DText(JoinPath(path, "points3D.txt"), &model);
+  if (ExistsFile(JoinPath(path, "rigs.txt"))) {
+    model.rigs = ReadRigsText(JoinPath(path, "rigs.txt"));
+  }
+  if (ExistsFile(JoinPath(path, "frames.txt"))) {
+    model.frames = ReadFramesText(JoinPath(path, "frames.txt"));
+  }
   return model;
 }
 
 void CheckOutputFolder(const std::string& path) {
   CheckDirectoryExists(path, "model output folder");
-}
-
-bool ExistsFile(const std::string& path) {
-  std::error_code ec;
-  return fs::is_regular_file(path, ec);
 }
 
 }  // namespace
@@ -620,6 +912,29 @@ std::vector<std::string> NumberedModelFolders(const std::string& folder) {
   return out;
 }
 
+std::vector<std::string> ResultModelFolders(const std::string& model_path) {
+  CheckDirectoryExists(model_path, "model");
+  fs::path path = fs::absolute(model_path).lexically_normal();
+  if (path.filename().empty()) path = path.parent_path();  // trailing '/'
+  if (HasModel(path.string())) {
+    // One of several numbered models: all of them.
+    const std::vector<std::string> siblings =
+        NumberedModelFolders(path.parent_path().string());
+    if (siblings.size() > 1 &&
+        std::find(siblings.begin(), siblings.end(), path.string()) !=
+            siblings.end()) {
+      return siblings;
+    }
+    return {path.string()};
+  }
+  const std::vector<std::string> inside = NumberedModelFolders(path.string());
+  ThrowUnless(!inside.empty(),
+              StrCat("no COLMAP model (cameras.bin or cameras.txt, or "
+                     "numbered model folders) in ",
+                     model_path));
+  return inside;
+}
+
 std::vector<Reconstruction> ReadNumberedModels(const std::string& folder) {
   std::vector<Reconstruction> models;
   for (int i = 0;; ++i) {
@@ -710,6 +1025,11 @@ void WriteModelBinary(const Reconstruction& model, const std::string& path) {
       }
     }
     WriteFileAtomically(JoinPath(path, "points3D.bin"), out.data());
+  }
+  if (model.rigs) WriteFileAtomically(JoinPath(path, "rigs.bin"), RigsBinary(*model.rigs));
+  if (model.frames) {
+    WriteFileAtomically(JoinPath(path, "frames.bin"),
+                        FramesBinary(*model.frames));
   }
 }
 
@@ -837,6 +1157,10 @@ void WriteModelText(const Reconstruction& model, const std::string& path) {
       out += '\n';
     }
     WriteFileAtomically(JoinPath(path, "points3D.txt"), out);
+  }
+  if (model.rigs) WriteFileAtomically(JoinPath(path, "rigs.txt"), RigsText(*model.rigs));
+  if (model.frames) {
+    WriteFileAtomically(JoinPath(path, "frames.txt"), FramesText(*model.frames));
   }
 }
 

@@ -17,13 +17,33 @@
 // Text format: cameras.txt, images.txt (two lines per image), points3D.txt,
 // with COLMAP's comment headers, written byte-identically to
 // `colmap model_converter --output_type TXT`.
+//
+// COLMAP 3.12 and later also write rigs.bin and frames.bin (rigs.txt,
+// frames.txt), read and written here as they are (src/colmap/scene/
+// reconstruction_io_binary.cc, _text.cc):
+//   rigs.bin:   uint64 num_rigs; per rig: uint32 rig_id, uint32 num_sensors;
+//               if num_sensors > 0: int32 ref_sensor_type, uint32
+//               ref_sensor_id; per other sensor: int32 type, uint32 id,
+//               uint8 has_pose, [float64 qw, qx, qy, qz, tx, ty, tz
+//               (sensor_from_rig)].
+//   frames.bin: uint64 num_frames; per frame: uint32 frame_id, uint32 rig_id,
+//               float64 qw, qx, qy, qz, tx, ty, tz (rig_from_world), uint32
+//               num_data_ids; per data: int32 sensor_type, uint32 sensor_id,
+//               uint64 data_id (an image_id for a camera).
+// images.bin keeps its 3.8 layout in every release (an image's pose is
+// written as its cam_from_world, composed from its frame and rig); from 3.12
+// COLMAP links images to frames through frames.bin, so the two must be kept
+// together: a model without them is read as one rig per camera and one frame
+// per image.
 #pragma once
 
 #include <Eigen/Core>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "hisfm/io/rigs.h"
 #include "hisfm/util/rigid3d.h"
 #include "hisfm/util/types.h"
 
@@ -93,6 +113,11 @@ struct Reconstruction {
   std::map<Point3DId, Point3D> points3D;
   /// Record order of the files this model was read from (see ModelFileOrder).
   ModelFileOrder file_order;
+  /// The rigs and frames of rigs.bin / frames.bin (or .txt), in file order;
+  /// absent when the model had no such file (before COLMAP 3.12, or built
+  /// in memory). Kept so that a model hisfm rewrites keeps them.
+  std::optional<std::vector<Rig>> rigs;
+  std::optional<std::vector<Frame>> frames;
 
   /// The image with this name, or nullptr.
   const Image* FindImageWithName(const std::string& name) const;
@@ -122,6 +147,11 @@ bool HasModel(const std::string& path);
 /// writes them) that hold a model, in numeric order; empty if there is none
 /// or `folder` cannot be read.
 std::vector<std::string> NumberedModelFolders(const std::string& folder);
+/// The model folders that make up a result at `model_path`: the folder
+/// itself, or all numbered folders beside it if it is one of several (out/0
+/// of out/0, out/1), or the numbered folders inside it (a COLMAP `sparse`
+/// folder). Throws hisfm::Error if there is none.
+std::vector<std::string> ResultModelFolders(const std::string& model_path);
 /// Reads a model folder, binary if cameras.bin is there, else text; throws
 /// hisfm::Error with a one-line message if it is missing or malformed, or
 /// has a problem of hisfm/io/model_validation.h (the first one is named).
@@ -137,14 +167,16 @@ Reconstruction ReadModelUnvalidated(const std::string& path);
 /// writes, in that order, stopping at the first missing number; empty if
 /// there is none.
 std::vector<Reconstruction> ReadNumberedModels(const std::string& folder);
-/// Writes cameras.bin, images.bin and points3D.bin into an existing folder,
-/// each file through a temporary file and a rename. Records are written in
+/// Writes cameras.bin, images.bin and points3D.bin (and rigs.bin and
+/// frames.bin if the model has them) into an existing folder, each file
+/// through a temporary file and a rename. Records are written in
 /// model.file_order and values exactly as stored, so a binary model read and
 /// written again is byte-identical. (COLMAP itself would re-normalize the
 /// quaternions and write its hash-map order instead.)
 void WriteModelBinary(const Reconstruction& model, const std::string& path);
-/// Writes cameras.txt, images.txt and points3D.txt into an existing folder,
-/// each file through a temporary file and a rename. The text is byte-identical
+/// Writes cameras.txt, images.txt and points3D.txt (and rigs.txt and
+/// frames.txt if the model has them, by increasing id as COLMAP does) into
+/// an existing folder, each file through a temporary file and a rename. The text is byte-identical
 /// to what `colmap model_converter --output_type TXT` writes from the files
 /// the model was read from (or from WriteModelBinary's output): COLMAP's
 /// headers, 17 significant digits, quaternions normalized as COLMAP does on

@@ -148,13 +148,18 @@ TEST(CameraModels, TableMatchesColmap) {
       {"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},         {"SIMPLE_RADIAL", 4},
       {"RADIAL", 5},         {"OPENCV", 8},          {"OPENCV_FISHEYE", 8},
       {"FULL_OPENCV", 12},   {"FOV", 5},             {"SIMPLE_RADIAL_FISHEYE", 4},
-      {"RADIAL_FISHEYE", 5}, {"THIN_PRISM_FISHEYE", 12}};
+      {"RADIAL_FISHEYE", 5}, {"THIN_PRISM_FISHEYE", 12},
+      // COLMAP 3.11, 4.0 and 4.1 (src/colmap/sensor/models.h).
+      {"RAD_TAN_THIN_PRISM_FISHEYE", 16}, {"SIMPLE_DIVISION", 4},
+      {"DIVISION", 5}, {"SIMPLE_FISHEYE", 3}, {"FISHEYE", 4}, {"EUCM", 6},
+      {"EQUIRECTANGULAR", 2}};
   for (int id = 0; id < static_cast<int>(expected.size()); ++id) {
     EXPECT_EQ(CameraModelIdToName(id), expected[id].first);
     EXPECT_EQ(CameraModelNumParams(id), expected[id].second);
     EXPECT_EQ(CameraModelNameToId(expected[id].first), id);
   }
-  EXPECT_EQ(CameraModelNumParams(11), -1);
+  EXPECT_EQ(CameraModelNumParams(18), -1);
+  EXPECT_EQ(CameraModelNumFocalLengths(17), 0);
   EXPECT_EQ(CameraModelIdToName(-1), "");
   EXPECT_EQ(CameraModelNameToId("PINHOLE "), -1);
 }

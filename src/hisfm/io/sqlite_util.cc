@@ -100,4 +100,29 @@ std::string SqliteQuote(const std::string& value) {
   return out + "'";
 }
 
+std::string SqliteQuoteIdentifier(const std::string& name) {
+  std::string out = "\"";
+  for (char c : name) {
+    out += c;
+    if (c == '"') out += '"';
+  }
+  return out + "\"";
+}
+
+bool SqliteHasTable(sqlite3* db, const std::string& table) {
+  SqliteStatement stmt(
+      db, "SELECT count(*) FROM sqlite_master WHERE type='table' AND name=?");
+  sqlite3_bind_text(stmt.get(), 1, table.c_str(), -1, SQLITE_TRANSIENT);
+  return stmt.Step() && sqlite3_column_int(stmt.get(), 0) > 0;
+}
+
+bool SqliteHasColumn(sqlite3* db, const std::string& table,
+                     const std::string& column) {
+  SqliteStatement stmt(
+      db, "SELECT count(*) FROM pragma_table_info(?) WHERE name = ?");
+  sqlite3_bind_text(stmt.get(), 1, table.c_str(), -1, SQLITE_TRANSIENT);
+  sqlite3_bind_text(stmt.get(), 2, column.c_str(), -1, SQLITE_TRANSIENT);
+  return stmt.Step() && sqlite3_column_int(stmt.get(), 0) > 0;
+}
+
 }  // namespace hisfm

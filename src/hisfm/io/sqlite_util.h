@@ -63,4 +63,14 @@ void SqliteExec(sqlite3* db, const std::string& sql);
 /// Quotes a string as an SQL literal ('it''s').
 std::string SqliteQuote(const std::string& value);
 
+/// Quotes a name as an SQL identifier ("a""b").
+std::string SqliteQuoteIdentifier(const std::string& name);
+
+/// True if the main schema of `db` has a table `table`.
+bool SqliteHasTable(sqlite3* db, const std::string& table);
+
+/// True if `table` of `db` has a column `column` (false without the table).
+bool SqliteHasColumn(sqlite3* db, const std::string& table,
+                     const std::string& column);
+
 }  // namespace hisfm

@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "hisfm/io/colmap_version.h"
 #include "hisfm/util/child_process.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
@@ -52,35 +53,18 @@ std::string JoinCommand(const std::vector<std::string>& argv) {
 
 std::string CheckColmapAvailable(const ColmapRunnerOptions& options) {
   options.Check();
-  char path[] = "/tmp/hisfm-colmap-check-XXXXXX";
-  const int fd = mkstemp(path);
-  ThrowUnless(fd >= 0, "cannot create a temporary file in /tmp");
-  int spawn_error = 0;
-  const int status = RunChildProcess({options.colmap_path, "help"},
-                                     ColmapEnvironment(path), fd,
-                                     &spawn_error);
-  close(fd);
-  const std::string head = TailOfFile(path, 1000);
-  unlink(path);
-  ThrowIfInterrupted();
-  ThrowUnless(status >= 0,
-              StrCat("colmap not found: cannot run '", options.colmap_path,
-                     "' (", std::strerror(spawn_error),
-                     "); install it with scripts/setup.sh or set "
-                     "--colmap_path"));
-  const size_t pos = head.find("COLMAP");
-  ThrowUnless(pos != std::string::npos,
-              StrCat("'", options.colmap_path, "' does not look like COLMAP"));
-  const size_t end = head.find(" | ", pos);
-  return head.substr(pos, end == std::string::npos ? end : end - pos);
+  return ProbeColmap(options.colmap_path, /*refresh=*/true).line;
 }
 
 double RunColmap(const ColmapRunnerOptions& options,
                  const std::vector<std::string>& args,
                  const std::string& log_path) {
   options.Check();
+  // Options under the names of the colmap that runs (io/colmap_version.h).
+  const std::vector<std::string> translated =
+      TranslateColmapArguments(ProbeColmap(options.colmap_path).release, args);
   std::vector<std::string> argv = {options.colmap_path};
-  argv.insert(argv.end(), args.begin(), args.end());
+  argv.insert(argv.end(), translated.begin(), translated.end());
   const std::string command = JoinCommand(argv);
   HISFM_LOG_DEBUG("running: {}", command);
   const int fd = open(log_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);

@@ -365,10 +365,19 @@ bool ParseExtractionProgress(const std::string& line, size_t* done,
   return ParseBracket(line, "Processed file [", done, total, nullptr);
 }
 
+// COLMAP 3.13 renamed the matchers' progress lines "Matching block [" and
+// "Matching image [" to "Processing block [" and "Processing image ["; the
+// mapper's "Registering image #ID (N)" (N registered, this one included)
+// became "Registering image #ID (num_reg_frames=N)" in 3.12 (N registered
+// before this one).
+
 bool ParseExhaustiveProgress(const std::string& line, size_t* done,
                              size_t* total) {
   size_t i = 0, n = 0, j = 0, m = 0, end = 0;
-  if (!ParseBracket(line, "Matching block [", &i, &n, &end)) return false;
+  if (!ParseBracket(line, "Matching block [", &i, &n, &end) &&
+      !ParseBracket(line, "Processing block [", &i, &n, &end)) {
+    return false;
+  }
   unsigned long x = 0, y = 0;
   if (std::sscanf(line.c_str() + end, ", %lu/%lu", &x, &y) != 2) return false;
   j = x;
@@ -381,7 +390,8 @@ bool ParseExhaustiveProgress(const std::string& line, size_t* done,
 
 bool ParseSequentialProgress(const std::string& line, size_t* done,
                              size_t* total) {
-  return ParseBracket(line, "Matching image [", done, total, nullptr);
+  return ParseBracket(line, "Matching image [", done, total, nullptr) ||
+         ParseBracket(line, "Processing image [", done, total, nullptr);
 }
 
 bool ParseMapperProgress(const std::string& line, size_t* done,
@@ -390,11 +400,17 @@ bool ParseMapperProgress(const std::string& line, size_t* done,
   if (pos == std::string::npos) return false;
   unsigned long id = 0, n = 0;
   if (std::sscanf(line.c_str() + pos, "Registering image #%lu (%lu)", &id,
-                  &n) != 2) {
-    return false;
+                  &n) == 2) {
+    *done = n;
+    return true;
   }
-  *done = n;
-  return true;
+  if (std::sscanf(line.c_str() + pos,
+                  "Registering image #%lu (num_reg_frames=%lu)", &id,
+                  &n) == 2) {
+    *done = n + 1;
+    return true;
+  }
+  return false;
 }
 
 // ---------------------------------------------------------------------------

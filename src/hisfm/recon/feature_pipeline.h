@@ -138,13 +138,15 @@ using ProgressLineParser =
 /// "Processed file [i/n]" -> i, n.
 bool ParseExtractionProgress(const std::string& line, size_t* done,
                              size_t* total);
-/// "Matching block [i/n, j/n]" -> (i - 1) n + j, n * n.
+/// "Matching block [i/n, j/n]" ("Processing block" from COLMAP 3.13) ->
+/// (i - 1) n + j, n * n.
 bool ParseExhaustiveProgress(const std::string& line, size_t* done,
                              size_t* total);
-/// "Matching image [i/n]" -> i, n.
+/// "Matching image [i/n]" ("Processing image" from COLMAP 3.13) -> i, n.
 bool ParseSequentialProgress(const std::string& line, size_t* done,
                              size_t* total);
-/// "Registering image #k (n)" -> n registered images (total unchanged).
+/// "Registering image #k (n)" -> n registered images, "Registering image #k
+/// (num_reg_frames=n)" (COLMAP 3.12 and later) -> n + 1 (total unchanged).
 bool ParseMapperProgress(const std::string& line, size_t* done,
                          size_t* total);
 

@@ -218,6 +218,21 @@ TEST(ProgressParsers, ReadColmapLines) {
   EXPECT_EQ(done, 12u);
   EXPECT_EQ(total, 64u);
   EXPECT_FALSE(ParseMapperProgress("Bundle adjustment report", &done, &total));
+  // COLMAP 3.12 and later.
+  EXPECT_TRUE(ParseMapperProgress(
+      "I20260301 12:00:00.1 incremental_pipeline.cc:531] Registering image "
+      "#38 (num_reg_frames=12)",
+      &done, &total));
+  EXPECT_EQ(done, 13u);
+  // COLMAP 3.13 and later.
+  EXPECT_TRUE(ParseExhaustiveProgress("Processing block [2/4, 3/4]", &done,
+                                      &total));
+  EXPECT_EQ(done, 7u);
+  EXPECT_EQ(total, 16u);
+  EXPECT_TRUE(
+      ParseSequentialProgress("Processing image [5/21]", &done, &total));
+  EXPECT_EQ(done, 5u);
+  EXPECT_EQ(total, 21u);
 }
 
 TEST(ColmapLogFollower, FollowsAppendedLinesOnly) {

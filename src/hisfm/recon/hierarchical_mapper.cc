@@ -5,6 +5,7 @@
 #include <fstream>
 #include <set>
 
+#include "hisfm/io/colmap_version.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
@@ -508,6 +509,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   }
   // Bad input stops here, in one line, before any colmap call.
   RequireValidDatabase(paths.database_path);
+  // Also refuses a colmap release whose option names hisfm does not know.
   CheckColmapAvailable(options.colmap);
   // Work folders of earlier versions hold view_graph.json, written first.
   PrepareWorkDirectory(work, "view_graph.json");
@@ -582,6 +584,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   summary["database_path"] = fs::absolute(paths.database_path).string();
   summary["image_path"] = fs::absolute(paths.image_path).string();
   summary["work_path"] = fs::absolute(work).string();
+  summary["colmap_version"] =
+      ProbeColmap(options.colmap.colmap_path).version.text;
   summary["registered_images"] = num_registered;
   summary["models"] = models;
   summary["failed_components"] = failed;

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <unordered_map>
 
+#include "hisfm/io/colmap_version.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
 #include "hisfm/io/model.h"
@@ -110,8 +111,10 @@ void WriteSceneTables(const SyntheticScene& scene, DatabaseWriter* writer) {
 void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
                       const std::string& match_list_path) {
   const std::string log_path = (fs::path(folder) / "matches_importer.log").string();
-  const std::vector<std::string> argv = {
-      options.colmap_path,
+  // Options under the names of the colmap that runs.
+  const ColmapRelease release = ProbeColmap(options.colmap_path).release;
+  std::vector<std::string> argv = {options.colmap_path};
+  for (std::string& arg : TranslateColmapArguments(release, {
       "matches_importer",
       "--database_path",
       (fs::path(folder) / "database.db").string(),
@@ -128,7 +131,9 @@ void VerifyWithColmap(const SynthOptions& options, const std::string& folder,
       "--SiftMatching.min_inlier_ratio",
       StrCat(options.min_inlier_ratio),
       "--SiftMatching.num_threads",
-      StrCat(NumWorkerThreads(options.num_threads))};
+      StrCat(NumWorkerThreads(options.num_threads))})) {
+    argv.push_back(std::move(arg));
+  }
   std::string command;
   for (const std::string& a : argv) command += (command.empty() ? "" : " ") + a;
   HISFM_LOG_INFO("Running {}", command);

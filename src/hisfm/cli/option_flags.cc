@@ -1,4 +1,4 @@
-#include "hisfm/exe/option_flags.h"
+#include "hisfm/cli/option_flags.h"
 
 #include <algorithm>
 #include <cctype>
@@ -183,6 +183,42 @@ void AddHierarchicalMapperFlags(CLI::App& app,
       ->capture_default_str();
 }
 
+void AddMapperPathFlags(CLI::App& app, MapperPaths* paths) {
+  app.add_option("--database_path", paths->database_path, "COLMAP database")
+      ->required();
+  app.add_option("--image_path", paths->image_path, "Folder of the photos")
+      ->required();
+  app.add_option("--output_path", paths->output_path,
+                 "Output folder (missing or empty)")
+      ->required();
+  app.add_option("--work_path", paths->work_path,
+                 "Intermediate files (default OUTPUT_work)");
+}
+
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options) {
+  app.add_option("--verdict_threshold_deg", options->verdict_threshold_deg,
+                 "Pair error threshold of the verdict (degrees)")
+      ->capture_default_str();
+  app.add_option("--min_correct_pair_fraction",
+                 options->min_correct_pair_fraction,
+                 "Fraction of pairs within the threshold needed for "
+                 "'correct'")
+      ->capture_default_str();
+  app.add_option("--require_all_registered", options->require_all_registered,
+                 "'correct' needs every reference image registered")
+      ->capture_default_str();
+  app.add_option("--min_model_size", options->min_model_size,
+                 "Models with at least this many reference images count as "
+                 "parts of an oversplit result")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000000));
+  app.add_option("--alignment_inlier_threshold",
+                 options->alignment.inlier_threshold,
+                 "Centre alignment inlier distance, fraction of the scene "
+                 "extent")
+      ->capture_default_str();
+}
+
 void AddLogLevelFlag(CLI::App& app, std::string* level) {
   app.add_option("--log_level", *level,
                  "trace, debug, info, warn, error or off")
@@ -284,9 +320,8 @@ int ParseCommandLine(CLI::App& app, int argc, char** argv) {
   return -1;
 }
 
-int ParseMapperCommand(CLI::App& app, int argc, char** argv,
-                       HierarchicalMapperOptions* options,
-                       std::string* log_level) {
+void PrepareMapperCommand(CLI::App& app, HierarchicalMapperOptions* options,
+                          std::string* log_level) {
   AddHierarchicalMapperFlags(app, options);
   AddLogLevelFlag(app, log_level);
   app.set_config("--project_path", "",
@@ -296,6 +331,21 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
   app.get_config_formatter_base()->parentSeparator('/');
   app.allow_extras();
   app.allow_config_extras(CLI::config_extras_mode::capture);
+}
+
+void CheckMapperOptions(const CLI::App& app,
+                        const HierarchicalMapperOptions& options) {
+  try {
+    options.Check();
+  } catch (const Error& e) {
+    throw Error(StrCat(e.what(), FlagsNamedIn(app, e.what())));
+  }
+}
+
+int ParseMapperCommand(CLI::App& app, int argc, char** argv,
+                       HierarchicalMapperOptions* options,
+                       std::string* log_level) {
+  PrepareMapperCommand(app, options, log_level);
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
@@ -304,11 +354,7 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
       app.remaining(), project->count() > 0
                            ? ReadMapperEntries(project->as<std::string>())
                            : std::map<std::string, std::string>());
-  try {
-    options->Check();
-  } catch (const Error& e) {
-    throw Error(StrCat(e.what(), FlagsNamedIn(app, e.what())));
-  }
+  CheckMapperOptions(app, *options);
   return -1;
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "hisfm/eval/pose_evaluation.h"
 #include "hisfm/recon/hierarchical_mapper.h"
 
 namespace hisfm {
@@ -14,6 +15,15 @@ namespace hisfm {
 /// options, plus --colmap_path.
 void AddHierarchicalMapperFlags(CLI::App& app,
                                 HierarchicalMapperOptions* options);
+
+/// Adds the paths of `hisfm mapper`: --database_path, --image_path and
+/// --output_path (required) and --work_path.
+void AddMapperPathFlags(CLI::App& app, MapperPaths* paths);
+
+/// Adds the options of the pose evaluation (`hisfm evaluate`):
+/// --verdict_threshold_deg, --min_correct_pair_fraction,
+/// --require_all_registered, --min_model_size, --alignment_inlier_threshold.
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options);
 
 /// Adds --log_level and applies it after parsing.
 void AddLogLevelFlag(CLI::App& app, std::string* level);
@@ -38,6 +48,17 @@ std::string FlagsNamedIn(const CLI::App& app, const std::string& message);
 /// prints one line, "error: ... (see -h)", on stderr (exit code 1). Returns
 /// -1 when the command should go on, else the exit code.
 int ParseCommandLine(CLI::App& app, int argc, char** argv);
+
+/// Adds the mapper flags (AddHierarchicalMapperFlags), --log_level and the
+/// options file --project_path to a command, which then takes unknown
+/// arguments (the `--Mapper.*` pass-through flags).
+void PrepareMapperCommand(CLI::App& app, HierarchicalMapperOptions* options,
+                          std::string* log_level);
+
+/// options.Check(), whose one-line error also names the flags of `app` that
+/// set the failing option (FlagsNamedIn).
+void CheckMapperOptions(const CLI::App& app,
+                        const HierarchicalMapperOptions& options);
 
 /// Adds the mapper flags (AddHierarchicalMapperFlags) and --log_level to a
 /// command that has added its own, parses it, passes unknown `--Mapper.*`
