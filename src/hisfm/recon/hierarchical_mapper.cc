@@ -92,6 +92,9 @@ struct LoadedInput {
   std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
       inliers;
   nlohmann::json multiview;
+  // Verified pairs kept back for images the hierarchy cannot register
+  // (VerifiedHierarchy::reserve_edges).
+  std::vector<ViewGraphEdge> reserve_edges;
 };
 
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
@@ -145,6 +148,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
         verifier, options.hierarchy, options.verifier.verified_hierarchy);
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
+    in.reserve_edges = std::move(verified.reserve_edges);
     in.multiview = {{"rounds", verified.rounds},
                     {"rejected_trusted_edges", verified.rejected.size()},
                     {"unresolved_trusted_edges", verified.num_unresolved},
@@ -385,23 +389,31 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
 // Registers the remaining images on the hierarchy's edges only (paper, Sec.
 // III-D), starting from the scaffold, or from scratch without one. Returns
 // the model folder.
+// `stage` names the database (STAGE.db) and the output folder (STAGE/) in
+// the component's folder, and is "attached" for the hierarchy's edges.
 std::string AttachLeaves(const ComponentRun& run,
                          const HierarchyComponent& comp,
                          const HierarchicalMapperOptions& options,
-                         const std::string& scaffold, StageTimes* times) {
+                         const std::string& scaffold, StageTimes* times,
+                         const std::string& stage = "attached",
+                         size_t num_edges = 0) {
   const size_t scaffold_size =
       scaffold.empty() ? 0 : ReadModelBinary(scaffold).NumRegImages();
+  const std::string database =
+      run.dir + (stage == "attached" ? "/hierarchy.db" : "/" + stage + ".db");
   LogHeading(StrCat("Attach: registering ", comp.images.size() - scaffold_size,
-                    " images on the hierarchy's ", comp.edges.size(),
+                    " images on ", num_edges ? num_edges : comp.edges.size(),
                     " edges"));
-  std::vector<std::string> args = {"mapper", "--database_path",
-                                   run.dir + "/hierarchy.db", "--image_path",
-                                   run.image_path};
+  std::vector<std::string> args = {"mapper", "--database_path", database,
+                                   "--image_path", run.image_path};
   if (!scaffold.empty()) {
     args.insert(args.end(), {"--input_path", scaffold});
   }
-  args.insert(args.end(), {"--output_path", run.dir + "/attached",
-                           "--image_list_path", run.dir + "/images.txt"});
+  const std::string out_dir = run.dir + "/" + stage;
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  args.insert(args.end(), {"--output_path", out_dir, "--image_list_path",
+                           run.dir + "/images.txt"});
   args.insert(args.end(), options.mapper_args.begin(),
               options.mapper_args.end());
   AddBundleAdjustmentFlags(options, &args);
@@ -434,7 +446,7 @@ std::string AttachLeaves(const ComponentRun& run,
   }
   const double seconds = timer.ElapsedSeconds();
   times->attach += seconds;
-  std::string attached = run.dir + "/attached";
+  std::string attached = out_dir;
   if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
   if (attached.empty() && !failure.empty()) throw Error(failure);
   ThrowUnless(!attached.empty(),
@@ -445,6 +457,51 @@ std::string AttachLeaves(const ComponentRun& run,
                  ReadModelBinary(attached).NumRegImages(), comp.images.size(),
                  seconds);
   return attached;
+}
+
+// Registers the images of the component that the hierarchy's edges left
+// unregistered through their reserve edges (verified, but below the support
+// threshold), starting from the attached model; returns the model with more
+// registered images.
+std::string RescueUnregistered(const ComponentRun& run,
+                               const HierarchyComponent& comp,
+                               const LoadedInput& in,
+                               const HierarchicalMapperOptions& options,
+                               const std::string& attached,
+                               StageTimes* times) {
+  if (in.reserve_edges.empty()) return attached;
+  const Reconstruction model = ReadModelBinary(attached);
+  std::set<ImageId> registered;
+  for (const auto& [id, image] : model.images) registered.insert(id);
+  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
+  std::set<ImageId> missing;
+  for (const ImageId id : comp.images) {
+    if (!registered.count(id)) missing.insert(id);
+  }
+  if (missing.empty()) return attached;
+  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
+  size_t num_reserve = 0;
+  for (const ViewGraphEdge& e : in.reserve_edges) {
+    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
+    if (members.count(a) && members.count(b) &&
+        (missing.count(a) || missing.count(b)) && edges.insert(e.pair).second) {
+      ++num_reserve;
+    }
+  }
+  if (num_reserve == 0) return attached;
+  HISFM_LOG_INFO("rescue: {} unregistered image(s), {} reserve edge(s)",
+                 missing.size(), num_reserve);
+  Timer timer;
+  FilteredDatabaseOptions filtered;
+  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  WriteFilteredDatabase(run.database_path, run.dir + "/rescued.db",
+                        {edges.begin(), edges.end()}, filtered);
+  times->filter_databases += timer.ElapsedSeconds();
+  const std::string rescued = AttachLeaves(run, comp, options, attached, times,
+                                           "rescued", edges.size());
+  return ReadModelBinary(rescued).NumRegImages() > model.NumRegImages()
+             ? rescued
+             : attached;
 }
 
 // The optional extra global bundle adjustment; returns the final model.
@@ -546,8 +603,10 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       PrepareComponent(run, comp, in, &times);
       const ScaffoldOutcome scaffold = ReconstructScaffold(run, comp, options,
                                                            &times);
-      const std::string attached =
-          AttachLeaves(run, comp, options, scaffold.model_path, &times);
+      const std::string attached = RescueUnregistered(
+          run, comp, in, options,
+          AttachLeaves(run, comp, options, scaffold.model_path, &times),
+          &times);
       const std::string final_model = RefineModel(run, attached, options,
                                                   &times);
       const Reconstruction model = ReadModelBinary(final_model);

@@ -1,5 +1,7 @@
 #include "hisfm/verify/multiview_verifier.h"
 
+#include "hisfm/util/interrupt.h"
+
 #include <algorithm>
 
 #include "hisfm/util/error.h"
@@ -49,6 +51,8 @@ const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId exclude) {
 const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {
   auto it = evidence_.find(pair);
   if (it != evidence_.end()) return it->second;
+  // Verification can take minutes on large scenes: Ctrl-C stops it here.
+  ThrowIfInterrupted();
   const ImageId i = pair.image_id1;
   const ImageId j = pair.image_id2;
   const LocalModel& model_i = EgoModel(i, j);

@@ -28,7 +28,9 @@ std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
 }
 
 void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
-                     int count, double threshold, Hierarchy* hierarchy) {
+                     int count, double threshold, Hierarchy* hierarchy,
+                     std::vector<ViewGraphEdge>* reserve,
+                     double reserve_threshold) {
   if (count <= 0) return;
   std::unordered_map<ImageId, size_t> component_of;
   for (size_t c = 0; c < hierarchy->components.size(); ++c) {
@@ -51,7 +53,14 @@ void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
           present.count(edge.pair) || added.count(edge.pair)) {
         continue;
       }
-      if (verifier.Score({edge.pair}).front() < threshold) continue;
+      const double score = verifier.Score({edge.pair}).front();
+      if (score < threshold) {
+        if (reserve && score >= reserve_threshold) {
+          added.insert(edge.pair);
+          reserve->push_back(edge);
+        }
+        continue;
+      }
       added.insert(edge.pair);
       hierarchy->support_edges.push_back(edge);
       HierarchyComponent& comp = hierarchy->components[ci->second];
@@ -107,9 +116,13 @@ VerifiedHierarchy BuildVerifiedHierarchy(
                     round, failing.size());
   }
   AddSupportEdges(out.graph, verifier, options.support_edges,
-                  options.support_threshold, &out.hierarchy);
+                  options.support_threshold, &out.hierarchy,
+                  &out.reserve_edges,
+                  hierarchy_options.skeleton.verify_threshold);
   if (options.clean_inliers) {
-    for (const ImagePair& pair : out.hierarchy.Edges()) {
+    std::vector<ImagePair> used = out.hierarchy.Edges();
+    for (const ViewGraphEdge& e : out.reserve_edges) used.push_back(e.pair);
+    for (const ImagePair& pair : used) {
       std::vector<FeatureMatch> inliers = verifier.ConsistentInliers(pair);
       out.num_inliers_before +=
           verifier.cache().Pair(pair.image_id1, pair.image_id2)->matches.size();

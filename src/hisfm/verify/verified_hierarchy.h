@@ -73,20 +73,31 @@ struct VerifiedHierarchy {
   int rounds = 0;
   /// Trusted edges below the threshold kept after the last round.
   size_t num_unresolved = 0;
-  /// Inliers to use per edge of the hierarchy (oriented as stored), when
-  /// clean_inliers.
+  /// Each image's strongest pairs (up to support_edges) inside its
+  /// component that score at least the bridges' threshold
+  /// (SkeletonOptions::verify_threshold) but below support_threshold: not
+  /// part of the hierarchy; the reconstruction uses them only to register
+  /// images that the hierarchy's edges leave unregistered.
+  std::vector<ViewGraphEdge> reserve_edges;
+  /// Inliers to use per edge of the hierarchy and per reserve edge
+  /// (oriented as stored), when clean_inliers.
   std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
       inliers;
-  /// Inliers before and after cleaning, over the hierarchy's edges.
+  /// Inliers before and after cleaning, over the hierarchy's and the
+  /// reserve edges.
   size_t num_inliers_before = 0;
   size_t num_inliers_after = 0;
 };
 
 /// Adds to `hierarchy` each image's `count` strongest pairs of `graph` that
 /// `verifier` scores at least `threshold`, inside components only (see
-/// VerifiedHierarchyOptions::support_edges).
+/// VerifiedHierarchyOptions::support_edges). If `reserve` is given, the
+/// pairs among them scoring at least `reserve_threshold` but below
+/// `threshold` are appended to it instead (VerifiedHierarchy::reserve_edges).
 void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
-                     int count, double threshold, Hierarchy* hierarchy);
+                     int count, double threshold, Hierarchy* hierarchy,
+                     std::vector<ViewGraphEdge>* reserve = nullptr,
+                     double reserve_threshold = 1.0);
 
 /// The edges of `hierarchy` that the paper trusts without verification:
 /// the communities' top-k edges, the skeleton's intra-community edges and
