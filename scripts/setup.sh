@@ -12,6 +12,8 @@ PACKAGES=(
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium
+  # hisfm reconstruct --executor slurm and its tests (scripts/local_slurm.sh).
+  slurm-wlm munge
   # scripts/sanitize.sh: ASan/UBSan build and libFuzzer targets.
   clang libclang-rt-14-dev llvm-14
 )

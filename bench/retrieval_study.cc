@@ -1,0 +1,216 @@
+// Retrieval matching (colmap vocab_tree_matcher with a tree built from the
+// scene's own descriptors, as `hisfm reconstruct --matcher vocab_tree` does)
+// against the exhaustive matching of the shared scenes' databases: for each
+// scene and number of retrieved images per image, the share of all pairs
+// matched, the recall of the pairs that exhaustive matching verifies with
+// many inliers (--strong_inliers) and of each image's strongest pair (the
+// hierarchy's community edges), matching time, and the verdict of `hisfm
+// mapper` on both databases against the scene's reference (or registered
+// images where it has none). Prints a Markdown table.
+//
+//   build/bench/retrieval_study [--scenes yan2017/books,yan2017/cup,...]
+//                               [--neighbors 5,10,20] [--strong_inliers 100]
+//                               [--work_path DIR]
+#include <CLI/CLI.hpp>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "hisfm/eval/pose_evaluation.h"
+#include "hisfm/io/database.h"
+#include "hisfm/io/model.h"
+#include "hisfm/io/sqlite_util.h"
+#include "hisfm/recon/colmap_runner.h"
+#include "hisfm/recon/feature_pipeline.h"
+#include "hisfm/util/error.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/string_util.h"
+#include "hisfm/util/test_util.h"
+#include "hisfm/util/timer.h"
+
+namespace fs = std::filesystem;
+using namespace hisfm;
+
+namespace {
+
+using PairKey = std::pair<ImageId, ImageId>;
+
+std::map<PairKey, uint32_t> Inliers(const std::string& path) {
+  Database db(path);
+  std::map<PairKey, uint32_t> out;
+  for (const VerifiedPair& p : db.ReadVerifiedPairs(1)) {
+    out[{p.pair.image_id1, p.pair.image_id2}] = p.num_inliers;
+  }
+  return out;
+}
+
+// Pairs colmap tried (rows of the matches table).
+size_t MatchedPairs(const std::string& path) {
+  SqliteConnection db = OpenReadOnlyConnection(path);
+  ThrowUnless(db != nullptr, "cannot open " + path);
+  SqliteStatement q(db.get(), "SELECT count(*) FROM matches");
+  return q.Step() ? static_cast<size_t>(sqlite3_column_int64(q.get(), 0)) : 0;
+}
+
+// "✓ 99.5%" against a reference, or "21/21 registered" without one.
+std::string Verdict(const std::string& hisfm, const std::string& db,
+                    const std::string& images, const std::string& out,
+                    const std::string& reference, size_t num_images,
+                    double* seconds) {
+  Timer timer;
+  const int code = RunShell(StrCat(hisfm, " mapper --database_path ", db,
+                                   " --image_path ", images,
+                                   " --output_path ", out,
+                                   " --log_level warn"),
+                            out + ".log");
+  *seconds = timer.ElapsedSeconds();
+  if (code != 0) return "failed";
+  const std::vector<Reconstruction> models = ReadNumberedModels(out);
+  if (models.empty()) return "×";
+  if (reference.empty()) {
+    size_t registered = 0;
+    for (const Reconstruction& m : models) {
+      registered = std::max(registered, m.NumRegImages());
+    }
+    return StrCat(registered, "/", num_images, " registered, ",
+                  models.size(), " model(s)");
+  }
+  const MultiModelEvaluation e =
+      EvaluateModels(models, ReadModel(reference), PoseEvaluationOptions());
+  return StrCat(e.correct ? "✓ " : "× ",
+                FormatFixed(100.0 * e.largest.verdict_pair_fraction, 1), "%");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app("Retrieval matching against exhaustive matching");
+  std::string scenes_arg = "yan2017/books,yan2017/oats,yan2017/cup";
+  std::string neighbors_arg = "5,10,20";
+  std::string work_path = "/tmp/hisfm-retrieval";
+  std::string hisfm = fs::path(argv[0]).parent_path().parent_path() / "hisfm";
+  uint32_t strong = 100;
+  app.add_option("--scenes", scenes_arg, "Scenes under HISFM_DATA_DIR")
+      ->capture_default_str();
+  app.add_option("--neighbors", neighbors_arg,
+                 "Retrieved images per image (--num_neighbors)")
+      ->capture_default_str();
+  app.add_option("--strong_inliers", strong,
+                 "Inliers of an exhaustive pair that retrieval must find")
+      ->capture_default_str();
+  app.add_option("--work_path", work_path, "Scratch folder (emptied)")
+      ->capture_default_str();
+  app.add_option("--hisfm", hisfm, "The hisfm executable")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  try {
+    fs::remove_all(work_path);
+    fs::create_directories(work_path);
+    std::ostringstream table;
+    table << "| scene | images | matcher | pairs matched | share of all "
+             "pairs | recall ≥" << strong << " inliers | recall of top-1 "
+             "pairs | tree (s) | matching (s) | hisfm verdict | mapper (s) "
+             "|\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    std::cout << table.str() << std::flush;
+    size_t printed = table.str().size();
+    std::stringstream scenes(scenes_arg);
+    std::string scene;
+    while (std::getline(scenes, scene, ',')) {
+      const std::string source = SharedDataPath(scene, "database.db");
+      ThrowUnless(!source.empty(), "scene not found: " + scene);
+      const std::string images = SharedDataPath(scene, "images");
+      const std::string reference = SharedDataPath(scene, "reference");
+      const std::string slug = fs::path(scene).filename();
+      const std::string dir = work_path + "/" + slug;
+      fs::create_directories(dir);
+      const std::map<PairKey, uint32_t> exhaustive = Inliers(source);
+      size_t n = 0;
+      {
+        Database db(source);
+        n = db.ReadImages().size();
+      }
+      const size_t all_pairs = n * (n - 1) / 2;
+      std::set<PairKey> strong_pairs, top1;
+      std::map<ImageId, std::pair<uint32_t, PairKey>> best;
+      for (const auto& [pair, inliers] : exhaustive) {
+        if (inliers >= strong) strong_pairs.insert(pair);
+        for (ImageId id : {pair.first, pair.second}) {
+          if (inliers > best[id].first) best[id] = {inliers, pair};
+        }
+      }
+      for (const auto& [id, b] : best) top1.insert(b.second);
+      double seconds = 0;
+      const std::string exhaustive_verdict =
+          Verdict(hisfm, source, images, dir + "/exhaustive", reference, n,
+                  &seconds);
+      table << "| " << slug << " | " << n << " | exhaustive (shared "
+            << "database) | " << MatchedPairs(source) << " | 100% | 100% | "
+            << "100% | - | - | " << exhaustive_verdict << " | "
+            << FormatFixed(seconds, 1) << " |\n";
+      // Features only, then the tree of hisfm reconstruct's defaults.
+      const std::string features = dir + "/features.db";
+      fs::copy_file(source, features);
+      {
+        sqlite3* db = nullptr;
+        sqlite3_open(features.c_str(), &db);
+        SqliteExec(db,
+                   "DELETE FROM matches; DELETE FROM two_view_geometries;");
+        sqlite3_close(db);
+      }
+      FeaturePipelineOptions defaults;
+      const int words = VocabTreeBuildWords(defaults, n);
+      const std::string tree = dir + "/vocab_tree.bin";
+      ColmapRunnerOptions colmap;
+      const double tree_seconds = RunColmap(
+          colmap,
+          {"vocab_tree_builder", "--database_path", features,
+           "--vocab_tree_path", tree, "--num_visual_words",
+           std::to_string(words), "--branching",
+           std::to_string(VocabTreeBuildBranching(words)), "--num_iterations",
+           "5"},
+          dir + "/vocab_tree_builder.log");
+      std::stringstream ks(neighbors_arg);
+      std::string k;
+      while (std::getline(ks, k, ',')) {
+        const std::string db = dir + "/vocab_" + k + ".db";
+        fs::copy_file(features, db);
+        const double match_seconds = RunColmap(
+            colmap,
+            {"vocab_tree_matcher", "--database_path", db,
+             "--VocabTreeMatching.vocab_tree_path", tree,
+             "--VocabTreeMatching.num_images", k, "--SiftMatching.use_gpu",
+             "0"},
+            dir + "/vocab_" + k + ".log");
+        const std::map<PairKey, uint32_t> found = Inliers(db);
+        const size_t matched = MatchedPairs(db);
+        auto recall = [&](const std::set<PairKey>& wanted) {
+          size_t hit = 0;
+          for (const PairKey& p : wanted) hit += found.count(p);
+          return wanted.empty() ? std::string("-")
+                                : FormatFixed(100.0 * hit / wanted.size(), 1) +
+                                      "%";
+        };
+        const std::string verdict = Verdict(
+            hisfm, db, images, dir + "/hisfm_" + k, reference, n, &seconds);
+        table << "| " << slug << " | " << n << " | vocab_tree, " << k
+              << " neighbours, " << words << " words | " << matched << " | "
+              << FormatFixed(100.0 * matched / std::max<size_t>(all_pairs, 1),
+                             1)
+              << "% | " << recall(strong_pairs) << " | " << recall(top1)
+              << " | " << FormatFixed(tree_seconds, 1) << " | "
+              << FormatFixed(match_seconds, 1) << " | " << verdict << " | "
+              << FormatFixed(seconds, 1) << " |\n";
+        std::cout << table.str().substr(printed) << std::flush;
+        printed = table.str().size();
+      }
+    }
+    std::cout << "\n" << table.str();
+  } catch (const Error& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,202 @@
+// `hisfm reconstruct --executor slurm` on the one-machine cluster that
+// ctest starts (scripts/local_slurm.sh, fixture slurm_cluster): the same
+// database, registered images and verdict as `--executor local` on books,
+// resumption of missing shards only, and a failing shard named.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+
+#include "hisfm/io/database.h"
+#include "hisfm/io/database_validation.h"
+#include "hisfm/util/file_util.h"
+#include "hisfm/util/test_util.h"
+
+namespace fs = std::filesystem;
+
+namespace hisfm {
+namespace {
+
+std::string Hisfm() {
+  const char* dir = std::getenv("HISFM_BINARY_DIR");
+  return std::string(dir ? dir : ".") + "/hisfm";
+}
+
+struct Result {
+  int code = 0;
+  std::string output;
+};
+
+Result RunHisfm(const std::string& args, const std::string& log) {
+  Result r;
+  r.code = RunShell(Hisfm() + " " + args, log);
+  r.output = ReadTextFile(log);
+  return r;
+}
+
+// "registered 21 of 21 images in 1 model(s)" and "against the reference:
+// correct" of reconstruct's summary.
+std::string Line(const std::string& output, const std::string& start) {
+  const size_t pos = output.find(start);
+  if (pos == std::string::npos) return "";
+  return output.substr(pos, output.find('\n', pos) - pos);
+}
+
+// Inliers of every verified pair, by image names.
+std::map<std::pair<std::string, std::string>, uint32_t> VerifiedPairs(
+    const std::string& path) {
+  Database db(path);
+  std::map<ImageId, std::string> names;
+  for (const DatabaseImage& im : db.ReadImages()) names[im.image_id] = im.name;
+  std::map<std::pair<std::string, std::string>, uint32_t> out;
+  for (const VerifiedPair& p : db.ReadVerifiedPairs(1)) {
+    out[{names[p.pair.image_id1], names[p.pair.image_id2]}] = p.num_inliers;
+  }
+  return out;
+}
+
+TEST(ReconstructSlurm, BooksGivesTheLocalDatabaseAndVerdict) {
+  const std::string skip = UseLocalSlurmCluster();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  const std::string images = SharedDataPath("yan2017/books", "images");
+  const std::string reference = SharedDataPath("yan2017/books", "reference");
+  if (images.empty() || reference.empty()) {
+    GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  }
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const std::string common = " --image_path " + images +
+                             " --reference_path " + reference +
+                             " --log_level info";
+  const Result local = RunHisfm(
+      "reconstruct --workspace_path " + (tmp / "local") + common,
+      tmp / "local.log");
+  ASSERT_EQ(local.code, 0) << local.output;
+  const Result slurm = RunHisfm(
+      "reconstruct --executor slurm --Slurm.cpus_per_task 1 "
+      "--workspace_path " + (tmp / "slurm") + common,
+      tmp / "slurm.log");
+  ASSERT_EQ(slurm.code, 0) << slurm.output;
+  EXPECT_NE(slurm.output.find("Feature shards"), std::string::npos);
+  EXPECT_NE(slurm.output.find("Matching blocks"), std::string::npos);
+  EXPECT_NE(slurm.output.find("10 pair block(s)"), std::string::npos);
+
+  // Same registered images and verdict.
+  const std::string registered =
+      Line(local.output, "registered ");
+  EXPECT_EQ(registered.rfind("registered 21 of 21 images", 0), 0u)
+      << registered;
+  EXPECT_EQ(Line(slurm.output, "registered "), registered);
+  EXPECT_FALSE(Line(local.output, "against the reference").empty());
+  EXPECT_EQ(Line(slurm.output, "against the reference"),
+            Line(local.output, "against the reference"));
+
+  // The same images (ids and names), cameras and keypoints; the same
+  // verified pairs with inlier counts within 5%.
+  const std::string local_db = tmp / "local/database.db";
+  const std::string slurm_db = tmp / "slurm/database.db";
+  EXPECT_TRUE(ValidateDatabase(slurm_db).empty());
+  {
+    Database a(local_db), b(slurm_db);
+    const std::vector<DatabaseImage> ia = a.ReadImages(), ib = b.ReadImages();
+    ASSERT_EQ(ia.size(), ib.size());
+    for (size_t i = 0; i < ia.size(); ++i) {
+      EXPECT_EQ(ia[i].image_id, ib[i].image_id);
+      EXPECT_EQ(ia[i].name, ib[i].name);
+      EXPECT_EQ(ia[i].camera_id, ib[i].camera_id);
+      EXPECT_EQ(a.ReadKeypoints(ia[i].image_id), b.ReadKeypoints(ib[i].image_id));
+    }
+    ASSERT_EQ(a.ReadCameras().size(), b.ReadCameras().size());
+    EXPECT_EQ(a.ReadCameras()[0].params, b.ReadCameras()[0].params);
+  }
+  const auto pa = VerifiedPairs(local_db), pb = VerifiedPairs(slurm_db);
+  EXPECT_GT(pa.size(), 100u);
+  size_t differing = 0;
+  for (const auto& [pair, n] : pa) {
+    const auto it = pb.find(pair);
+    ASSERT_NE(it, pb.end()) << pair.first << " " << pair.second;
+    EXPECT_LE(std::abs(static_cast<double>(it->second) - n), 0.05 * n + 1)
+        << pair.first << " " << pair.second << ": " << n << " vs "
+        << it->second;
+    differing += it->second != n;
+  }
+  EXPECT_EQ(pa.size(), pb.size());
+  std::printf("verified pairs: %zu, %zu with other inlier counts\n",
+              pa.size(), differing);
+
+  // A rerun skips every stage; with one feature shard and one pair block
+  // gone (and the merged database), only those two are submitted again.
+  const std::string ws = tmp / "slurm";
+  Result again = RunHisfm("reconstruct --executor slurm --workspace_path " +
+                              ws + common,
+                          tmp / "again.log");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("features: unchanged"), std::string::npos);
+  EXPECT_NE(again.output.find("matching: unchanged"), std::string::npos);
+  fs::remove(ws + "/database.db");
+  fs::remove(ws + "/slurm/features/shard_2.db");
+  fs::remove(ws + "/slurm/features/task_2.done");
+  fs::remove(ws + "/slurm/matching/task_4.done");
+  again = RunHisfm("reconstruct --executor slurm --workspace_path " + ws +
+                       common,
+                   tmp / "again2.log");
+  ASSERT_EQ(again.code, 0) << again.output;
+  EXPECT_NE(again.output.find("Feature shards: 6 of 7 done in an earlier run"),
+            std::string::npos)
+      << again.output;
+  EXPECT_NE(again.output.find("Matching blocks: 9 of 10 done in an earlier "
+                              "run"),
+            std::string::npos)
+      << again.output;
+  EXPECT_EQ(Line(again.output, "registered "), registered);
+}
+
+// A shard whose colmap always fails is retried and then named; the other
+// shards' work is kept for the next run.
+TEST(ReconstructSlurm, FailingShardIsRetriedThenNamed) {
+  const std::string skip = UseLocalSlurmCluster();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  const std::string src = SharedDataPath("yan2017/books", "images");
+  if (src.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const std::string images = tmp / "images";
+  fs::create_directories(images);
+  for (const char* name : {"0000.jpg", "0001.jpg", "0002.jpg"}) {
+    fs::copy_file(src + "/" + name, images + "/" + name);
+  }
+  // colmap, except for the shard that lists 0001.jpg.
+  const std::string wrapper = tmp / "colmap";
+  std::ofstream(wrapper) << "#!/bin/bash\nfor a in \"$@\"; do\n"
+                            "  if [ -f \"$a\" ] && grep -q 0001.jpg \"$a\"; "
+                            "then echo 'cannot read 0001.jpg' >&2; exit 9; "
+                            "fi\ndone\nexec colmap \"$@\"\n";
+  chmod(wrapper.c_str(), 0755);
+  const Result r = RunHisfm(
+      "reconstruct --executor slurm --Slurm.shard_size 1 --Slurm.max_retries "
+      "1 --colmap_path " + wrapper + " --image_path " + images +
+          " --workspace_path " + (tmp / "ws"),
+      tmp / "run.log");
+  EXPECT_NE(r.code, 0);
+  const std::string error = Line(r.output, "error: ");
+  EXPECT_NE(error.find("1 of 3 task(s) still failed after 1 retry"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(error.find("feature shard 1 (images 2-2)"), std::string::npos)
+      << error;
+  EXPECT_NE(error.find("cannot read 0001.jpg"), std::string::npos) << error;
+  EXPECT_NE(r.output.find("submitting them again (retry 1 of 1)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_TRUE(fs::exists(tmp / "ws/slurm/features/shard_0.db"));
+  EXPECT_TRUE(fs::exists(tmp / "ws/slurm/features/shard_2.db"));
+  EXPECT_FALSE(fs::exists(tmp / "ws/database.db"));
+}
+
+}  // namespace
+}  // namespace hisfm
