@@ -187,14 +187,15 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
     map[im.camera_id] = static_cast<int64_t>(new_cameras.size());
   }
 
-  SqliteExec(db, "BEGIN;");
   SqliteExec(db,
              "CREATE TEMP TABLE map_image (old INTEGER PRIMARY KEY, new "
              "INTEGER, camera INTEGER);"
              "CREATE TEMP TABLE map_camera (old INTEGER PRIMARY KEY, new "
              "INTEGER);");
   for (size_t s = 0; s < shard_paths.size(); ++s) {
+    // One transaction per shard: SQLite attaches only outside of one.
     Attach(db, shard_paths[s]);
+    SqliteExec(db, "BEGIN;");
     SqliteExec(db, "DELETE FROM map_image; DELETE FROM map_camera;");
     {
       SqliteStatement insert(db, "INSERT INTO map_image VALUES (?, ?, ?)");
@@ -224,16 +225,19 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
     const std::string image_columns =
         CommonColumns(db, "images", "image_id", "");
     std::string image_select;
-    SqliteStatement info(
-        db, StrCat("SELECT name FROM pragma_table_info('images', 'main') "
-                   "WHERE name IN (SELECT name FROM "
-                   "pragma_table_info('images', 'src')) AND name != "
-                   "'image_id' ORDER BY cid"));
-    while (info.Step()) {
-      const std::string name =
-          reinterpret_cast<const char*>(sqlite3_column_text(info.get(), 0));
-      image_select += name == "camera_id" ? std::string(", m.camera")
-                                          : StrCat(", i.\"", name, "\"");
+    {
+      // Finalized before src is detached (a live statement locks it).
+      SqliteStatement info(
+          db, StrCat("SELECT name FROM pragma_table_info('images', 'main') "
+                     "WHERE name IN (SELECT name FROM "
+                     "pragma_table_info('images', 'src')) AND name != "
+                     "'image_id' ORDER BY cid"));
+      while (info.Step()) {
+        const std::string name =
+            reinterpret_cast<const char*>(sqlite3_column_text(info.get(), 0));
+        image_select += name == "camera_id" ? std::string(", m.camera")
+                                            : StrCat(", i.\"", name, "\"");
+      }
     }
     SqliteExec(db, StrCat("INSERT INTO main.images (image_id", image_columns,
                           ") SELECT m.new", image_select,
@@ -248,6 +252,7 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
                             " FROM src.", table,
                             " t JOIN map_image m ON t.image_id = m.old;"));
     }
+    SqliteExec(db, "COMMIT;");
     SqliteExec(db, "DETACH DATABASE src;");
   }
   {
@@ -262,7 +267,6 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
           " has no keypoints in its feature shard"));
     }
   }
-  SqliteExec(db, "COMMIT;");
   out.Commit();
 }
 

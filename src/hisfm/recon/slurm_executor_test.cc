@@ -45,12 +45,8 @@ for p in "${parts[@]}"; do
 done
 echo "42"
 )");
-    Write(dir + "/squeue", "#!/bin/bash
-exit 0
-");
-    Write(dir + "/scancel", "#!/bin/bash
-exit 0
-");
+    Write(dir + "/squeue", "#!/bin/bash\nexit 0\n");
+    Write(dir + "/scancel", "#!/bin/bash\nexit 0\n");
   }
   SlurmOptions Options() const {
     SlurmOptions o;
