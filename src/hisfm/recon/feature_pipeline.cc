@@ -358,6 +358,12 @@ int VocabTreeBuildBranching(int num_words) {
   return num_words < 4096 ? 16 : 32;
 }
 
+size_t VocabTreeBuildImages(size_t num_images, double mean_descriptors) {
+  if (!(mean_descriptors > 0)) return num_images;
+  const double images = 200000.0 / mean_descriptors;
+  return std::clamp<size_t>(static_cast<size_t>(images), 1, num_images);
+}
+
 // ---------------------------------------------------------------------------
 // Progress lines.
 
@@ -669,6 +675,14 @@ void ClearMatches(const std::string& path) {
   sqlite3_close(db);
 }
 
+// Mean number of descriptors per image of a database (0 if none).
+double MeanDescriptors(const std::string& path) {
+  SqliteConnection db = OpenReadOnlyConnection(path);
+  if (!db) return 0.0;
+  SqliteStatement q(db.get(), "SELECT avg(rows) FROM descriptors");
+  return q.Step() ? sqlite3_column_double(q.get(), 0) : 0.0;
+}
+
 std::string JoinArgs(const std::vector<std::string>& args) {
   std::string out;
   for (const std::string& a : args) out += a + '\x1f';
@@ -880,6 +894,12 @@ FeaturePipelineResult RunFeaturePipeline(
                           " image(s) (colmap vocab_tree_builder)"));
         const std::string tmp = ws + "/vocab_tree.tmp.bin";
         fs::remove(tmp, ec);
+        // colmap aborts if asked to sample more images than it has.
+        size_t num_db_images = 0;
+        {
+          Database db(database);
+          num_db_images = db.ReadImages().size();
+        }
         Timer timer;
         RunColmap(options.colmap,
                   {"vocab_tree_builder", "--database_path", database,
@@ -887,7 +907,8 @@ FeaturePipelineResult RunFeaturePipeline(
                    std::to_string(words), "--branching",
                    std::to_string(branching), "--num_iterations", "5",
                    "--max_num_images",
-                   std::to_string(std::min<size_t>(image_names.size(), 1000))},
+                   std::to_string(VocabTreeBuildImages(
+                       num_db_images, MeanDescriptors(database)))},
                   ws + "/logs/vocab_tree_builder.log");
         const double seconds = timer.ElapsedSeconds();
         fs::rename(tmp, result.vocab_tree_path, ec);

@@ -170,6 +170,14 @@ int VocabTreeBuildWords(const FeaturePipelineOptions& options,
 /// hundred thousand descriptors take minutes).
 int VocabTreeBuildBranching(int num_words);
 
+/// Images sampled to build a tree (colmap vocab_tree_builder
+/// --max_num_images) for `num_images` images with `mean_descriptors`
+/// descriptors each: about 200,000 descriptors in all (within [1,
+/// num_images]; all images if the mean is unknown). Building clusters
+/// every sampled descriptor (minutes for a few hundred thousand on two
+/// cores), so a large collection's tree comes from a sample of its images.
+size_t VocabTreeBuildImages(size_t num_images, double mean_descriptors);
+
 // ---------------------------------------------------------------------------
 // Progress from colmap's log.
 

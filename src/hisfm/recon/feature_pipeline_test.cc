@@ -412,6 +412,10 @@ TEST(RunFeaturePipeline, VocabTreeMatchesRetrievedPairsOnly) {
   EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 6), 512);
   EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 1), 256);
   EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 100000), 65536);
+  EXPECT_EQ(VocabTreeBuildImages(21, 4000.0), 21u);
+  EXPECT_EQ(VocabTreeBuildImages(1000, 4000.0), 50u);
+  EXPECT_EQ(VocabTreeBuildImages(1000, 0.0), 1000u);
+  EXPECT_EQ(VocabTreeBuildImages(3, 1e9), 1u);
 }
 
 }  // namespace
