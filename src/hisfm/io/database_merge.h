@@ -22,8 +22,10 @@ struct FeatureShardMergeOptions {
 /// Writes a new COLMAP database at `output_path` holding the cameras,
 /// images, keypoints and descriptors of the shard databases, whose images
 /// must be `image_names` exactly (each in one shard). Image i of
-/// `image_names` gets image id i + 1, as one `colmap feature_extractor` run
-/// over the list gives; camera ids follow the same order. Columns are copied
+/// `image_names` gets image id i + 1 (one `colmap feature_extractor` run
+/// over the list numbers images in the order their extraction finishes,
+/// which varies with threads; the merge's order does not); camera ids
+/// follow the same order. Columns are copied
 /// by name (those of COLMAP 3.8's schema that a shard has). The shards are
 /// opened read-only; the output is written to a temporary file and renamed
 /// into place. Throws hisfm::Error naming the shard and the image if an image

@@ -2,8 +2,9 @@
 // --executor slurm`), on a filesystem shared with the cluster:
 //   - extraction: the image list is cut into shards; each task runs colmap
 //     feature_extractor on its shard into a database of its own; the shards
-//     are merged into one database whose image and camera ids are those of
-//     one feature_extractor run over the whole list (io/database_merge.h);
+//     are merged into one database, image ids in name order, cameras as one
+//     feature_extractor run over the whole list makes them
+//     (io/database_merge.h);
 //   - matching: the candidate pairs are cut into blocks; each task copies
 //     the features database and runs colmap matches_importer on its block's
 //     pair list (exhaustive and sequential matching; the sequential pairs are
