@@ -167,6 +167,49 @@ TEST(ReconstructSlurm, BooksGivesTheLocalDatabaseAndVerdict) {
   EXPECT_EQ(Line(again.output, "registered "), registered);
 }
 
+// Retrieval on Slurm: query shards matched against the whole index give
+// the pairs one local vocab_tree_matcher run gives with the same tree.
+TEST(ReconstructSlurm, VocabTreeMatchesTheLocalPairs) {
+  const std::string skip = UseLocalSlurmCluster();
+  if (!skip.empty()) GTEST_SKIP() << skip;
+  const std::string src = SharedDataPath("yan2017/books", "images");
+  if (src.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const std::string images = tmp / "images";
+  fs::create_directories(images);
+  for (const char* name : {"0000.jpg", "0003.jpg", "0006.jpg", "0009.jpg",
+                           "0012.jpg"}) {
+    fs::copy_file(src + "/" + name, images + "/" + name);
+  }
+  const std::string common = " --matcher vocab_tree --num_neighbors 2 "
+                             "--image_path " + images;
+  const Result local = RunHisfm(
+      "reconstruct --workspace_path " + (tmp / "local") + common,
+      tmp / "local.log");
+  ASSERT_EQ(local.code, 0) << local.output;
+  EXPECT_TRUE(fs::exists(tmp / "local/vocab_tree.bin"));
+  const Result slurm = RunHisfm(
+      "reconstruct --executor slurm --Slurm.shard_size 2 --vocab_tree_path " +
+          (tmp / "local/vocab_tree.bin") + " --workspace_path " +
+          (tmp / "slurm") + common,
+      tmp / "slurm.log");
+  ASSERT_EQ(slurm.code, 0) << slurm.output;
+  EXPECT_NE(slurm.output.find("3 retrieval block(s)"), std::string::npos)
+      << slurm.output;
+  EXPECT_FALSE(fs::exists(tmp / "slurm/vocab_tree.bin"));
+  const auto pa = VerifiedPairs(tmp / "local/database.db");
+  const auto pb = VerifiedPairs(tmp / "slurm/database.db");
+  EXPECT_GE(pa.size(), 3u);
+  EXPECT_LT(pa.size(), 10u);
+  ASSERT_EQ(pa.size(), pb.size());
+  for (const auto& [pair, n] : pa) {
+    const auto it = pb.find(pair);
+    ASSERT_NE(it, pb.end()) << pair.first << " " << pair.second;
+    EXPECT_LE(std::abs(static_cast<double>(it->second) - n), 0.05 * n + 1);
+  }
+}
+
 // A shard whose colmap always fails is retried and then named; the other
 // shards' work is kept for the next run.
 TEST(ReconstructSlurm, FailingShardIsRetriedThenNamed) {
