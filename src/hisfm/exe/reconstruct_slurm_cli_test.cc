@@ -89,15 +89,21 @@ TEST(ReconstructSlurm, BooksGivesTheLocalDatabaseAndVerdict) {
   EXPECT_NE(slurm.output.find("Matching blocks"), std::string::npos);
   EXPECT_NE(slurm.output.find("10 pair block(s)"), std::string::npos);
 
-  // Same registered images and verdict.
-  const std::string registered =
-      Line(local.output, "registered ");
+  // The same verdict. (Which images register is not compared: COLMAP
+  // seeds the RANSAC of matching and mapping from the clock, and on books
+  // two local runs of this base registered 10 and 11 images.)
+  const std::string registered = Line(local.output, "registered ");
   EXPECT_NE(registered.find(" of 21 images"), std::string::npos)
       << local.output;
-  EXPECT_EQ(Line(slurm.output, "registered "), registered);
-  EXPECT_FALSE(Line(local.output, "against the reference").empty());
-  EXPECT_EQ(Line(slurm.output, "against the reference"),
-            Line(local.output, "against the reference"));
+  EXPECT_NE(Line(slurm.output, "registered ").find(" of 21 images"),
+            std::string::npos)
+      << slurm.output;
+  auto verdict = [](const std::string& output) {
+    const std::string line = Line(output, "against the reference: ");
+    return line.substr(0, line.find(' ', 23));
+  };
+  EXPECT_FALSE(verdict(local.output).empty()) << local.output;
+  EXPECT_EQ(verdict(slurm.output), verdict(local.output));
 
   // The same images, camera and keypoints (by name: a local run numbers
   // the images in the order extraction finishes, the merge in name order);
@@ -125,20 +131,24 @@ TEST(ReconstructSlurm, BooksGivesTheLocalDatabaseAndVerdict) {
     ASSERT_EQ(b.ReadCameras().size(), 1u);
     EXPECT_EQ(a.ReadCameras()[0].params, b.ReadCameras()[0].params);
   }
+  // RANSAC's draws differ between runs: counts within 5% (or 3 inliers),
+  // except for at most 2% of the pairs, all within 20%.
   const auto pa = VerifiedPairs(local_db), pb = VerifiedPairs(slurm_db);
   EXPECT_GT(pa.size(), 100u);
-  size_t differing = 0;
+  size_t differing = 0, beyond = 0;
   for (const auto& [pair, n] : pa) {
     const auto it = pb.find(pair);
     ASSERT_NE(it, pb.end()) << pair.first << " " << pair.second;
-    EXPECT_LE(std::abs(static_cast<double>(it->second) - n), 0.05 * n + 1)
-        << pair.first << " " << pair.second << ": " << n << " vs "
-        << it->second;
+    const double diff = std::abs(static_cast<double>(it->second) - n);
+    EXPECT_LE(diff, 0.2 * n + 3) << pair.first << " " << pair.second;
     differing += it->second != n;
+    beyond += diff > std::max(0.05 * n, 3.0);
   }
   EXPECT_EQ(pa.size(), pb.size());
-  std::printf("verified pairs: %zu, %zu with other inlier counts\n",
-              pa.size(), differing);
+  EXPECT_LE(beyond, pa.size() / 50) << beyond << " of " << pa.size();
+  std::printf("verified pairs: %zu, %zu with other inlier counts, %zu "
+              "beyond 5%%\n",
+              pa.size(), differing, beyond);
 
   // A rerun skips every stage; with one feature shard and one pair block
   // gone (and the merged database), only those two are submitted again.
@@ -164,7 +174,7 @@ TEST(ReconstructSlurm, BooksGivesTheLocalDatabaseAndVerdict) {
                               "run"),
             std::string::npos)
       << again.output;
-  EXPECT_EQ(Line(again.output, "registered "), registered);
+  EXPECT_EQ(verdict(again.output), verdict(local.output));
 }
 
 // Retrieval on Slurm: query shards matched against the whole index give
