@@ -24,9 +24,13 @@
 //                              [--budget_seconds 7200] [--scene street]
 //                              [--synth_args "--street_block_houses 80"]
 //                              [--seed 1] [--work_path DIR] [--keep 0]
+//                              [--colmap_max_images 0]
 //
 // At 5,000 images on 2 cores this takes hours (the colmap runs dominate):
-// run it with a budget and let the fit say what colmap would have taken.
+// run it with a budget and let the fit say what colmap would have taken, or
+// run colmap only up to --colmap_max_images (larger sizes get the fitted
+// time, marked "not run"). Each run's time and verdict is printed to stderr
+// as it finishes.
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -173,6 +177,7 @@ int main(int argc, char** argv) {
   int seed = 1;
   double budget = 7200;
   bool keep = false;
+  int colmap_max_images = 0;
   app.add_option("--sizes", sizes_arg, "Image counts")->capture_default_str();
   app.add_option("--budget_seconds", budget,
                  "Time budget of each mapper run (killed at it)")
@@ -193,6 +198,10 @@ int main(int argc, char** argv) {
   app.add_option("--keep", keep,
                  "Keep each size's scene and models (else removed once "
                  "judged: databases of thousands of images are gigabytes)")
+      ->capture_default_str();
+  app.add_option("--colmap_max_images", colmap_max_images,
+                 "Run colmap only up to this many images (0: every size); "
+                 "larger sizes get the time fitted on the smaller ones")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   try {
@@ -254,8 +263,15 @@ int main(int argc, char** argv) {
                                          db, "--image_path", images,
                                          "--output_path", out};
         args.insert(args.end(), extra.begin(), extra.end());
+        if (colmap_max_images > 0 && n > colmap_max_images) {
+          std::cerr << "   not run (--colmap_max_images)\n";
+          return Run();
+        }
         Run r = RunMeasured(args, out + ".log", budget);
         Judge(out, reference, &r);
+        std::cerr << "   " << FormatFixed(r.seconds, 1) << " s"
+                  << (r.finished ? "" : " (killed)") << ", exit "
+                  << r.exit_code << ", " << r.verdict << "\n";
         return r;
       };
       ns.push_back(n);
@@ -269,6 +285,10 @@ int main(int argc, char** argv) {
       for (const std::string& w : Words(hisfm_args)) h.push_back(w);
       Run hr = RunMeasured(h, dir + "/hisfm.log", budget);
       Judge(dir + "/hisfm", reference, &hr);
+      std::cerr << "   " << FormatFixed(hr.seconds, 1) << " s"
+                << (hr.finished ? "" : " (killed)") << ", exit "
+                << hr.exit_code << ", " << hr.verdict << ", "
+                << verified << " verified pairs\n";
       hisfm_runs.push_back(hr);
       if (!keep) fs::remove_all(dir + "/scene");
     }
@@ -278,7 +298,12 @@ int main(int argc, char** argv) {
     const GrowthFit fit_hisfm = Fit(ns, hisfm_runs);
     auto time_cell = [&](const Run& r, const GrowthFit& fit, double n) {
       if (r.ok()) return FormatFixed(r.seconds, 1);
-      if (r.ran && !r.finished) {
+      if (!r.ran) {
+        return fit.points >= 2 ? StrCat("not run; fit ~",
+                                        FormatFixed(fit.At(n), 0))
+                               : std::string("not run");
+      }
+      if (!r.finished) {
         return StrCat("> ", FormatFixed(budget, 0), " (killed",
                       fit.points >= 2
                           ? StrCat("; fit ~", FormatFixed(fit.At(n), 0))
@@ -291,7 +316,13 @@ int main(int argc, char** argv) {
                           double n) {
       if (!h.ok()) return std::string("-");
       if (c.ok()) return FormatFixed(h.seconds / c.seconds, 3);
-      if (c.ran && !c.finished) {
+      if (!c.ran) {
+        return fit.points >= 2
+                   ? StrCat("~", FormatFixed(h.seconds / fit.At(n), 3),
+                            " with the fit")
+                   : std::string("-");
+      }
+      if (!c.finished) {
         std::string cell = "< " + FormatFixed(h.seconds / budget, 3);
         if (fit.points >= 2) {
           cell += StrCat(" (~", FormatFixed(h.seconds / fit.At(n), 3),

@@ -131,10 +131,19 @@ void WriteSyntheticDescriptors(const SyntheticScene& scene,
         const uint32_t appearance =
             p == kNoScenePoint ? 0x80000000u + static_cast<uint32_t>(rng() >> 1)
                                : scene.layout.points[p].appearance;
-        const std::array<double, 128> d = base(appearance);
+        std::array<double, 128> d = base(appearance);
+        double norm = 0;
+        for (double& v : d) {
+          v = std::max(0.0, v + n01(rng));
+          norm += v * v;
+        }
+        // COLMAP's byte descriptors are unit vectors times 512 (its matcher
+        // takes acos of the dot product / 512^2 and keeps <= 0.7 rad): a
+        // descriptor of another norm matches nothing.
+        const double scale = norm > 0 ? 512.0 / std::sqrt(norm) : 0.0;
         for (int k = 0; k < 128; ++k) {
           data[f * 128 + k] = static_cast<uint8_t>(
-              std::clamp(std::lround(d[k] + n01(rng)), 0L, 255L));
+              std::clamp(std::lround(d[k] * scale), 0L, 255L));
         }
       }
       sqlite3_bind_int64(insert.get(), 1, image.image_id);
