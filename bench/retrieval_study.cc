@@ -102,7 +102,9 @@ std::string Verdict(const std::string& hisfm, const std::string& db,
   const MultiModelEvaluation e =
       EvaluateModels(models, ReadModel(reference), PoseEvaluationOptions());
   return StrCat(e.correct ? "✓ " : "× ",
-                FormatFixed(100.0 * e.largest.verdict_pair_fraction, 1), "%");
+                FormatFixed(100.0 * e.largest.verdict_pair_fraction, 1),
+                "% ≤5°, ", e.largest.num_registered, "/", num_images,
+                " reg., ", models.size(), " model(s)");
 }
 
 // Writes SIFT-like descriptors for every keypoint of the synthetic scene
