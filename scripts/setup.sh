@@ -15,6 +15,8 @@ PACKAGES=(
   # The Python module (build/python) and its tests.
   pybind11-dev python3-dev python3-numpy python3-pytest
   chromium
+  # hisfm reconstruct --executor slurm and its tests (scripts/local_slurm.sh).
+  slurm-wlm munge
   # scripts/sanitize.sh: ASan/UBSan build and libFuzzer targets.
   clang libclang-rt-14-dev llvm-14
 )

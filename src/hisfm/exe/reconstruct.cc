@@ -53,7 +53,8 @@ void AddReference(const std::string& reference_path, ReportInput* input) {
 int RunReconstructCommand(int argc, char** argv) {
   CLI::App app(
       "From a folder of photos to a model: COLMAP feature extraction and "
-      "matching on the CPU into WORKSPACE/database.db, the hierarchical "
+      "matching on the CPU (on this machine, or as Slurm job arrays with "
+      "--executor slurm) into WORKSPACE/database.db, the hierarchical "
       "mapper into WORKSPACE/sparse (models 0, 1, ...), and the report "
       "WORKSPACE/sparse/report.html. Stages whose inputs did not change "
       "since the last run are skipped. Unknown --Mapper.* flags go to "
@@ -69,9 +70,74 @@ int RunReconstructCommand(int argc, char** argv) {
                  "Workspace folder (created; reused to resume)")
       ->required();
   app.add_option("--matcher", features.matcher,
-                 "exhaustive (every pair) or sequential (photos taken in "
-                 "name order)")
-      ->check(CLI::IsMember({"exhaustive", "sequential"}))
+                 "exhaustive (every pair), sequential (photos taken in name "
+                 "order) or vocab_tree (each photo with the --num_neighbors "
+                 "photos a vocabulary tree retrieves)")
+      ->check(CLI::IsMember({"exhaustive", "sequential", "vocab_tree"}))
+      ->capture_default_str();
+  app.add_option("--vocab_tree_path", features.vocab_tree_path,
+                 "vocab_tree: a vocabulary tree in COLMAP's format; default: "
+                 "one built from the photos' own descriptors (colmap "
+                 "vocab_tree_builder) into WORKSPACE/vocab_tree.bin, once");
+  app.add_option("--num_neighbors", features.num_neighbors,
+                 "vocab_tree: photos retrieved and matched per photo")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--vocab_tree_num_words", features.vocab_tree_num_words,
+                 "vocab_tree: visual words of a built tree (0: 64 per photo, "
+                 "a power of two within 256-65536)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--executor", features.executor,
+                 "local (colmap on this machine) or slurm (feature "
+                 "extraction and matching as Slurm job arrays; the "
+                 "workspace, photos and colmap must be on a filesystem the "
+                 "nodes share)")
+      ->check(CLI::IsMember({"local", "slurm"}))
+      ->capture_default_str();
+  app.add_option("--Slurm.partition", features.slurm.partition,
+                 "slurm: partition of the jobs (default: the cluster's)");
+  app.add_option("--Slurm.cpus_per_task", features.slurm.cpus_per_task,
+                 "slurm: CPUs (and colmap threads) of each task")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.mem_mb", features.slurm.mem_mb,
+                 "slurm: memory of each task in MB (0: the cluster's "
+                 "default)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.time_limit_minutes",
+                 features.slurm.time_limit_minutes,
+                 "slurm: time limit of each task (0: the partition's)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.max_parallel_tasks",
+                 features.slurm.max_parallel_tasks,
+                 "slurm: tasks of an array running at once (0: no limit)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.max_retries", features.slurm.max_retries,
+                 "slurm: submissions of a failing shard after its first")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.shard_size", features.shard_size,
+                 "slurm: photos per extraction (and retrieval) shard (0: "
+                 "about 8 shards)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.block_group_size", features.block_group_size,
+                 "slurm: photos per group of the exhaustive pair blocks, a "
+                 "block pairing two groups (0: about 4 groups, 10 blocks)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--Slurm.sbatch_path", features.slurm.sbatch_path,
+                 "slurm: the sbatch command")
+      ->capture_default_str();
+  app.add_option("--Slurm.squeue_path", features.slurm.squeue_path,
+                 "slurm: the squeue command")
+      ->capture_default_str();
+  app.add_option("--Slurm.scancel_path", features.slurm.scancel_path,
+                 "slurm: the scancel command")
       ->capture_default_str();
   app.add_option("--camera_mode", features.camera_mode,
                  "single (one camera for all photos), per_image, or auto "
@@ -164,8 +230,15 @@ int RunReconstructCommand(int argc, char** argv) {
   input.stages.push_back({"feature extraction (colmap, CPU)",
                           pipeline.recorded_extraction_seconds,
                           note(pipeline.extraction_skipped)});
+  if (features.matcher == "vocab_tree" && features.vocab_tree_path.empty()) {
+    input.stages.push_back({"vocabulary tree (colmap vocab_tree_builder)",
+                            pipeline.recorded_vocab_tree_seconds,
+                            note(!pipeline.vocab_tree_built)});
+  }
   input.stages.push_back({StrCat("matching (colmap ", features.matcher,
-                                 "_matcher, CPU)"),
+                                 "_matcher, CPU",
+                                 features.executor == "slurm" ? ", Slurm" : "",
+                                 ")"),
                           pipeline.recorded_matching_seconds,
                           note(pipeline.matching_skipped)});
   for (const SkippedImageFile& s : pipeline.scan.skipped) {
@@ -177,7 +250,11 @@ int RunReconstructCommand(int argc, char** argv) {
        {"photos", StrCat(pipeline.scan.images.size(), " readable, ",
                          pipeline.scan.skipped.size(), " skipped")},
        {"cameras", CameraModeName(pipeline.camera_mode)},
-       {"matcher", features.matcher}});
+       {"matcher", features.matcher == "vocab_tree"
+                       ? StrCat("vocab_tree (", features.num_neighbors,
+                                " neighbours)")
+                       : features.matcher},
+       {"executor", features.executor}});
   AddReference(reference_path, &input);
   const std::string report_path = sparse + "/report.html";
   WriteReport(input, report_path);
@@ -192,6 +269,10 @@ int RunReconstructCommand(int argc, char** argv) {
   };
   row("feature extraction", pipeline.recorded_extraction_seconds,
       pipeline.extraction_skipped);
+  if (features.matcher == "vocab_tree" && features.vocab_tree_path.empty()) {
+    row("vocabulary tree", pipeline.recorded_vocab_tree_seconds,
+        !pipeline.vocab_tree_built);
+  }
   row("matching", pipeline.recorded_matching_seconds,
       pipeline.matching_skipped);
   row("hierarchical mapper", recorded_mapper, mapper_skipped);

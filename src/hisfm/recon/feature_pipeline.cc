@@ -18,6 +18,7 @@
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/sqlite_util.h"
+#include "hisfm/recon/slurm_feature_stages.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
@@ -321,7 +322,14 @@ CameraMode ResolveCameraMode(CameraMode mode,
 }
 
 void FeaturePipelineOptions::Check() const {
-  HISFM_CHECK_OPTION(matcher == "exhaustive" || matcher == "sequential");
+  HISFM_CHECK_OPTION(matcher == "exhaustive" || matcher == "sequential" ||
+                     matcher == "vocab_tree");
+  HISFM_CHECK_OPTION(num_neighbors >= 1);
+  HISFM_CHECK_OPTION(vocab_tree_num_words == 0 || vocab_tree_num_words >= 16);
+  HISFM_CHECK_OPTION(executor == "local" || executor == "slurm");
+  HISFM_CHECK_OPTION(shard_size >= 0);
+  HISFM_CHECK_OPTION(block_group_size >= 0);
+  if (executor == "slurm") slurm.Check();
   ParseCameraMode(camera_mode);
   HISFM_CHECK_OPTION(!camera_model.empty());
   HISFM_CHECK_OPTION(num_threads == -1 || num_threads >= 1);
@@ -334,6 +342,26 @@ int ExhaustiveBlockSize(const FeaturePipelineOptions& options,
   if (options.exhaustive_block_size > 0) return options.exhaustive_block_size;
   const int quarter = static_cast<int>((num_images + 3) / 4);
   return std::clamp(quarter, 5, 50);
+}
+
+int VocabTreeBuildWords(const FeaturePipelineOptions& options,
+                        size_t num_images) {
+  if (options.vocab_tree_num_words > 0) return options.vocab_tree_num_words;
+  int words = 256;
+  while (words < 65536 && static_cast<size_t>(words) < 64 * num_images) {
+    words *= 2;
+  }
+  return words;
+}
+
+int VocabTreeBuildBranching(int num_words) {
+  return num_words < 4096 ? 16 : 32;
+}
+
+size_t VocabTreeBuildImages(size_t num_images, double mean_descriptors) {
+  if (!(mean_descriptors > 0)) return num_images;
+  const double images = 200000.0 / mean_descriptors;
+  return std::clamp<size_t>(static_cast<size_t>(images), 1, num_images);
 }
 
 // ---------------------------------------------------------------------------
@@ -663,9 +691,52 @@ void ClearMatches(const std::string& path) {
   sqlite3_close(db);
 }
 
+// Mean number of descriptors per image of a database (0 if none).
+double MeanDescriptors(const std::string& path) {
+  SqliteConnection db = OpenReadOnlyConnection(path);
+  if (!db) return 0.0;
+  SqliteStatement q(db.get(), "SELECT avg(rows) FROM descriptors");
+  return q.Step() ? sqlite3_column_double(q.get(), 0) : 0.0;
+}
+
 std::string JoinArgs(const std::vector<std::string>& args) {
   std::string out;
   for (const std::string& a : args) out += a + '\x1f';
+  return out;
+}
+
+// The --SequentialMatching.* flags of the matcher arguments that decide the
+// pairs (COLMAP's defaults otherwise).
+struct SequentialMatchingFlags {
+  size_t overlap = 10;
+  bool quadratic = true;
+};
+
+SequentialMatchingFlags ReadSequentialMatchingFlags(
+    const std::vector<std::string>& args) {
+  SequentialMatchingFlags flags;
+  for (size_t i = 0; i + 1 < args.size(); ++i) {
+    if (args[i] == "--SequentialMatching.overlap") {
+      flags.overlap = static_cast<size_t>(std::stoul(args[i + 1]));
+    } else if (args[i] == "--SequentialMatching.quadratic_overlap") {
+      flags.quadratic = args[i + 1] != "0" && args[i + 1] != "false";
+    }
+  }
+  return flags;
+}
+
+// The --SiftMatching.* flags (with their values) of the matcher arguments:
+// what matches_importer and vocab_tree_matcher accept of them.
+std::vector<std::string> SiftMatchingArgs(
+    const std::vector<std::string>& args) {
+  std::vector<std::string> out;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (args[i].rfind("--SiftMatching.", 0) != 0) continue;
+    out.push_back(args[i]);
+    if (i + 1 < args.size() && args[i + 1].rfind("--", 0) != 0) {
+      out.push_back(args[++i]);
+    }
+  }
   return out;
 }
 
@@ -735,38 +806,60 @@ FeaturePipelineResult RunFeaturePipeline(
   result.database_path = database;
 
   // Stage: feature extraction.
+  const bool on_slurm = options.executor == "slurm";
   const std::string features_fp = TextFingerprint(StrCat(
       "features v1\n", colmap_version, "\n", images_record.str(),
       CameraModeName(result.camera_mode), "\n", options.camera_model, "\n",
       JoinArgs(options.extractor_args)));
+  std::vector<std::string> image_names;
+  for (const ImageFileInfo& im : scan.images) image_names.push_back(im.name);
   if (ledger.IsDone("features", features_fp) && fs::exists(database)) {
     result.extraction_skipped = true;
     HISFM_LOG_INFO("features: unchanged since the last run, skipped");
   } else {
     ledger.Invalidate("matching");
+    ledger.Invalidate("vocab_tree");
     ledger.Invalidate("features");
-    LogHeading(StrCat("Extracting features of ", scan.images.size(),
-                      " image(s) (colmap feature_extractor, CPU)"));
     const std::string tmp = ws + "/database.features.tmp.db";
     RemoveDatabaseFiles(tmp);
-    std::vector<std::string> args = {
-        "feature_extractor",        "--database_path",
-        tmp,                        "--image_path",
-        images_abs,                 "--image_list_path",
-        list_path,                  "--SiftExtraction.use_gpu",
-        "0",                        "--SiftExtraction.num_threads",
-        std::to_string(options.num_threads),
-        "--ImageReader.camera_model", options.camera_model};
-    if (result.camera_mode == CameraMode::kSingle) {
-      args.insert(args.end(), {"--ImageReader.single_camera", "1"});
+    Timer timer;
+    if (on_slurm) {
+      SlurmExtractionJob job;
+      job.image_path = images_abs;
+      job.image_names = image_names;
+      job.shard_size = options.shard_size > 0
+                           ? static_cast<size_t>(options.shard_size)
+                           : PieceSize(image_names.size(), 8);
+      job.single_camera = result.camera_mode == CameraMode::kSingle;
+      job.camera_model = options.camera_model;
+      job.extractor_args = options.extractor_args;
+      job.fingerprint = features_fp;
+      result.feature_shards = ExtractFeaturesOnSlurm(
+          job, options.colmap, options.slurm, ws + "/slurm/features", tmp);
+      result.extraction_seconds = timer.ElapsedSeconds();
     } else {
-      args.insert(args.end(), {"--ImageReader.single_camera_per_image", "1"});
+      LogHeading(StrCat("Extracting features of ", scan.images.size(),
+                        " image(s) (colmap feature_extractor, CPU)"));
+      std::vector<std::string> args = {
+          "feature_extractor",        "--database_path",
+          tmp,                        "--image_path",
+          images_abs,                 "--image_list_path",
+          list_path,                  "--SiftExtraction.use_gpu",
+          "0",                        "--SiftExtraction.num_threads",
+          std::to_string(options.num_threads),
+          "--ImageReader.camera_model", options.camera_model};
+      if (result.camera_mode == CameraMode::kSingle) {
+        args.insert(args.end(), {"--ImageReader.single_camera", "1"});
+      } else {
+        args.insert(args.end(),
+                    {"--ImageReader.single_camera_per_image", "1"});
+      }
+      args.insert(args.end(), options.extractor_args.begin(),
+                  options.extractor_args.end());
+      result.extraction_seconds = RunColmapWithProgress(
+          options.colmap, args, ws + "/logs/feature_extractor.log",
+          "Extracting features", scan.images.size(), ParseExtractionProgress);
     }
-    args.insert(args.end(), options.extractor_args.begin(),
-                options.extractor_args.end());
-    result.extraction_seconds = RunColmapWithProgress(
-        options.colmap, args, ws + "/logs/feature_extractor.log",
-        "Extracting features", scan.images.size(), ParseExtractionProgress);
     size_t num_in_db = 0;
     {
       Database db(tmp);
@@ -774,7 +867,8 @@ FeaturePipelineResult RunFeaturePipeline(
     }
     ThrowUnless(num_in_db > 0,
                 StrCat("colmap extracted no features; see ", ws,
-                       "/logs/feature_extractor.log"));
+                       on_slurm ? "/slurm/features/task_*.log"
+                                : "/logs/feature_extractor.log"));
     if (num_in_db < scan.images.size()) {
       HISFM_LOG_WARN("colmap read {} of {} images; see {}", num_in_db,
                      scan.images.size(), ws + "/logs/feature_extractor.log");
@@ -784,13 +878,74 @@ FeaturePipelineResult RunFeaturePipeline(
     ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
     ledger.MarkDone("features", features_fp, result.extraction_seconds, {},
                     {{"images", num_in_db},
-                     {"camera_mode", CameraModeName(result.camera_mode)}});
+                     {"camera_mode", CameraModeName(result.camera_mode)},
+                     {"executor", options.executor}});
   }
   result.recorded_extraction_seconds = ledger.Seconds("features");
 
+  // Stage: the vocabulary tree (retrieval only): the user's, or one built
+  // from the collection's descriptors and kept while they are unchanged.
+  std::string tree_fp;
+  if (options.matcher == "vocab_tree") {
+    if (!options.vocab_tree_path.empty()) {
+      CheckFileReadable(options.vocab_tree_path, "vocabulary tree");
+      result.vocab_tree_path =
+          fs::absolute(options.vocab_tree_path).lexically_normal();
+      tree_fp = TextFingerprint(StrCat("given tree\n", result.vocab_tree_path,
+                                       "\n", FileStamp(result.vocab_tree_path)));
+    } else {
+      result.vocab_tree_path = ws + "/vocab_tree.bin";
+      const int words = VocabTreeBuildWords(options, image_names.size());
+      const int branching = VocabTreeBuildBranching(words);
+      tree_fp = TextFingerprint(StrCat("vocab_tree v1\n", features_fp, "\n",
+                                       words, "\n", branching));
+      if (ledger.IsDone("vocab_tree", tree_fp)) {
+        HISFM_LOG_INFO("vocabulary tree: unchanged since the last run, "
+                       "reused");
+      } else {
+        ledger.Invalidate("vocab_tree");
+        LogHeading(StrCat("Building a vocabulary tree of ", words,
+                          " visual words from the descriptors of ",
+                          image_names.size(),
+                          " image(s) (colmap vocab_tree_builder)"));
+        const std::string tmp = ws + "/vocab_tree.tmp.bin";
+        fs::remove(tmp, ec);
+        // colmap aborts if asked to sample more images than it has.
+        size_t num_db_images = 0;
+        {
+          Database db(database);
+          num_db_images = db.ReadImages().size();
+        }
+        Timer timer;
+        RunColmap(options.colmap,
+                  {"vocab_tree_builder", "--database_path", database,
+                   "--vocab_tree_path", tmp, "--num_visual_words",
+                   std::to_string(words), "--branching",
+                   std::to_string(branching), "--num_iterations", "5",
+                   "--max_num_images",
+                   std::to_string(VocabTreeBuildImages(
+                       num_db_images, MeanDescriptors(database)))},
+                  ws + "/logs/vocab_tree_builder.log");
+        const double seconds = timer.ElapsedSeconds();
+        fs::rename(tmp, result.vocab_tree_path, ec);
+        ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
+        HISFM_LOG_INFO("vocabulary tree built in {:.1f} s: {}", seconds,
+                       result.vocab_tree_path);
+        ledger.MarkDone("vocab_tree", tree_fp, seconds,
+                        {result.vocab_tree_path}, {{"words", words}});
+        result.vocab_tree_built = true;
+      }
+      result.recorded_vocab_tree_seconds = ledger.Seconds("vocab_tree");
+    }
+  }
+
   // Stage: matching.
+  std::string matcher_key = options.matcher;
+  if (options.matcher == "vocab_tree") {
+    matcher_key += StrCat(" ", tree_fp, " ", options.num_neighbors);
+  }
   const std::string matching_fp = TextFingerprint(
-      StrCat("matching v1\n", features_fp, "\n", options.matcher, "\n",
+      StrCat("matching v1\n", features_fp, "\n", matcher_key, "\n",
              JoinArgs(options.matcher_args)));
   result.fingerprint = matching_fp;
   if (ledger.IsDone("matching", matching_fp)) {
@@ -798,40 +953,94 @@ FeaturePipelineResult RunFeaturePipeline(
     HISFM_LOG_INFO("matching: unchanged since the last run, skipped");
   } else {
     ledger.Invalidate("matching");
-    size_t num_images = 0;
+    std::vector<std::string> db_names;
     {
       Database db(database);
-      num_images = db.ReadImages().size();
+      for (const DatabaseImage& im : db.ReadImages()) {
+        db_names.push_back(im.name);
+      }
     }
+    const size_t num_images = db_names.size();
     const std::string tmp = ws + "/database.matching.tmp.db";
     RemoveDatabaseFiles(tmp);
-    fs::copy_file(database, tmp, ec);
-    ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
-    ClearMatches(tmp);
-    const std::string log = ws + "/logs/" + options.matcher + "_matcher.log";
-    std::vector<std::string> args = {
-        options.matcher + "_matcher", "--database_path",        tmp,
-        "--SiftMatching.use_gpu",     "0",
-        "--SiftMatching.num_threads", std::to_string(options.num_threads)};
-    size_t total = num_images;
-    ProgressLineParser parser = ParseSequentialProgress;
-    if (options.matcher == "exhaustive") {
-      const int block = ExhaustiveBlockSize(options, num_images);
-      args.insert(args.end(),
-                  {"--ExhaustiveMatching.block_size", std::to_string(block)});
-      const size_t blocks = (num_images + block - 1) / block;
-      total = blocks * blocks;
-      parser = ParseExhaustiveProgress;
+    if (on_slurm) {
+      const std::string dir = ws + "/slurm/matching";
+      fs::create_directories(dir, ec);
+      const std::string features_only = dir + "/features.db";
+      RemoveDatabaseFiles(features_only);
+      fs::copy_file(database, features_only, ec);
+      ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
+      ClearMatches(features_only);
+      SlurmMatchingJob job;
+      job.features_path = features_only;
+      job.image_names = db_names;
+      const size_t group =
+          options.block_group_size > 0
+              ? static_cast<size_t>(options.block_group_size)
+              : PieceSize(num_images, 4);
+      if (options.matcher == "exhaustive") {
+        job.pair_blocks = ExhaustivePairBlocks(num_images, group);
+      } else if (options.matcher == "sequential") {
+        const SequentialMatchingFlags flags =
+            ReadSequentialMatchingFlags(options.matcher_args);
+        job.pair_blocks = CutPairs(
+            SequentialPairs(num_images, flags.overlap, flags.quadratic),
+            group * group);
+      } else {
+        const size_t shard = options.shard_size > 0
+                                 ? static_cast<size_t>(options.shard_size)
+                                 : PieceSize(num_images, 8);
+        for (size_t start = 0; start < num_images; start += shard) {
+          std::vector<size_t> queries;
+          for (size_t i = start; i < std::min(num_images, start + shard); ++i) {
+            queries.push_back(i);
+          }
+          job.query_shards.push_back(std::move(queries));
+        }
+        job.vocab_tree_path = result.vocab_tree_path;
+        job.num_neighbors = options.num_neighbors;
+      }
+      job.matcher_args = SiftMatchingArgs(options.matcher_args);
+      job.fingerprint = matching_fp;
+      Timer timer;
+      result.matching_blocks =
+          MatchOnSlurm(job, options.colmap, options.slurm, dir, tmp);
+      result.matching_seconds = timer.ElapsedSeconds();
+    } else {
+      fs::copy_file(database, tmp, ec);
+      ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
+      ClearMatches(tmp);
+      const std::string log =
+          ws + "/logs/" + options.matcher + "_matcher.log";
+      std::vector<std::string> args = {
+          options.matcher + "_matcher", "--database_path",        tmp,
+          "--SiftMatching.use_gpu",     "0",
+          "--SiftMatching.num_threads", std::to_string(options.num_threads)};
+      size_t total = num_images;
+      ProgressLineParser parser = ParseSequentialProgress;
+      if (options.matcher == "exhaustive") {
+        const int block = ExhaustiveBlockSize(options, num_images);
+        args.insert(args.end(), {"--ExhaustiveMatching.block_size",
+                                 std::to_string(block)});
+        const size_t blocks = (num_images + block - 1) / block;
+        total = blocks * blocks;
+        parser = ParseExhaustiveProgress;
+      } else if (options.matcher == "vocab_tree") {
+        args.insert(args.end(), {"--VocabTreeMatching.vocab_tree_path",
+                                 result.vocab_tree_path,
+                                 "--VocabTreeMatching.num_images",
+                                 std::to_string(options.num_neighbors)});
+      }
+      args.insert(args.end(), options.matcher_args.begin(),
+                  options.matcher_args.end());
+      LogHeading(StrCat("Matching ", num_images, " image(s) (colmap ",
+                        options.matcher, "_matcher, CPU)"));
+      result.matching_seconds = RunColmapWithProgress(
+          options.colmap, args, log,
+          options.matcher == "exhaustive" ? "Matching image blocks"
+                                          : "Matching images",
+          total, parser);
     }
-    args.insert(args.end(), options.matcher_args.begin(),
-                options.matcher_args.end());
-    LogHeading(StrCat("Matching ", num_images, " image(s) (colmap ",
-                      options.matcher, "_matcher, CPU)"));
-    result.matching_seconds = RunColmapWithProgress(
-        options.colmap, args, log,
-        options.matcher == "exhaustive" ? "Matching image blocks"
-                                        : "Matching images",
-        total, parser);
     size_t num_pairs = 0;
     {
       Database db(tmp);
@@ -844,6 +1053,7 @@ FeaturePipelineResult RunFeaturePipeline(
     ledger.MarkDone("matching", matching_fp, result.matching_seconds,
                     {database},
                     {{"matcher", options.matcher},
+                     {"executor", options.executor},
                      {"verified_pairs", num_pairs}});
   }
   result.recorded_matching_seconds = ledger.Seconds("matching");

@@ -1,7 +1,11 @@
 // From a folder of photos to a matched COLMAP database, resumably:
 //   1. scan the folder (every file checked: readable, a known image header);
 //   2. colmap feature_extractor (CPU SIFT) on the readable images;
-//   3. colmap exhaustive_matcher or sequential_matcher (CPU).
+//   3. colmap exhaustive_matcher, sequential_matcher or vocab_tree_matcher
+//      (CPU; retrieval with a vocabulary tree the user gives or one built
+//      once from the collection's descriptors, cached in the workspace).
+// With the Slurm executor, stages 2 and 3 run as job arrays on a shared
+// filesystem (slurm_feature_stages.h) and give the same database.
 // Each stage writes its database under a temporary name that is renamed into
 // place when the stage completes, and records a fingerprint of its inputs in
 // WORKSPACE/stages.json; a later run skips a stage whose fingerprint and
@@ -24,6 +28,7 @@
 #include <vector>
 
 #include "hisfm/recon/colmap_runner.h"
+#include "hisfm/recon/slurm_executor.h"
 
 namespace hisfm {
 
@@ -99,8 +104,32 @@ CameraMode ResolveCameraMode(CameraMode mode,
                              const std::vector<ImageFileInfo>& images);
 
 struct FeaturePipelineOptions {
-  /// "exhaustive" (every pair) or "sequential" (neighbours in name order).
+  /// "exhaustive" (every pair), "sequential" (neighbours in name order) or
+  /// "vocab_tree" (each image with the images a vocabulary tree retrieves).
   std::string matcher = "exhaustive";
+  /// vocab_tree: a vocabulary tree file in COLMAP's format; empty: one is
+  /// built from the collection's own descriptors (colmap vocab_tree_builder,
+  /// see VocabTreeBuildOptions) into WORKSPACE/vocab_tree.bin, once, and
+  /// reused while the features are unchanged. Nothing is downloaded.
+  std::string vocab_tree_path;
+  /// vocab_tree: images retrieved and matched per image
+  /// (--VocabTreeMatching.num_images).
+  int num_neighbors = 20;
+  /// vocab_tree with a built tree: visual words; 0 picks one from the number
+  /// of images (see VocabTreeBuildWords).
+  int vocab_tree_num_words = 0;
+  /// "local" (colmap on this machine) or "slurm" (job arrays, see
+  /// slurm_feature_stages.h).
+  std::string executor = "local";
+  /// slurm: images per feature-extraction shard; 0 gives about 8 shards.
+  int shard_size = 0;
+  /// slurm: images per group of the exhaustive pair blocks (a block pairs
+  /// two groups); 0 gives about 4 groups (10 blocks). Sequential pairs are
+  /// cut into blocks of group_size^2 pairs, retrieval queries into shards of
+  /// shard_size images.
+  int block_group_size = 0;
+  /// slurm: the cluster's commands and each task's resources and retries.
+  SlurmOptions slurm;
   /// "single", "per_image" or "auto", see CameraMode.
   std::string camera_mode = "auto";
   /// COLMAP camera model of the new cameras (--ImageReader.camera_model).
@@ -126,6 +155,28 @@ struct FeaturePipelineOptions {
 /// FeaturePipelineOptions::exhaustive_block_size).
 int ExhaustiveBlockSize(const FeaturePipelineOptions& options,
                         size_t num_images);
+
+/// Visual words of a vocabulary tree built for `num_images` images when
+/// FeaturePipelineOptions::vocab_tree_num_words is 0: 64 per image, rounded
+/// to a power of two within [256, 65536]. A tree far larger than the
+/// collection's descriptors (a few thousand per photo) leaves most words
+/// with one descriptor and retrieval degrades to chance; COLMAP's published
+/// trees have 32K words for 1,000-10,000 images.
+int VocabTreeBuildWords(const FeaturePipelineOptions& options,
+                        size_t num_images);
+
+/// Branching factor of a built tree with `num_words` words: 16 below 4,096
+/// words, else 32 (colmap's default 256 makes building a tree for a few
+/// hundred thousand descriptors take minutes).
+int VocabTreeBuildBranching(int num_words);
+
+/// Images sampled to build a tree (colmap vocab_tree_builder
+/// --max_num_images) for `num_images` images with `mean_descriptors`
+/// descriptors each: about 200,000 descriptors in all (within [1,
+/// num_images]; all images if the mean is unknown). Building clusters
+/// every sampled descriptor (minutes for a few hundred thousand on two
+/// cores), so a large collection's tree comes from a sample of its images.
+size_t VocabTreeBuildImages(size_t num_images, double mean_descriptors);
 
 // ---------------------------------------------------------------------------
 // Progress from colmap's log.
@@ -251,6 +302,14 @@ struct FeaturePipelineResult {
   double recorded_matching_seconds = 0.0;
   bool extraction_skipped = false;
   bool matching_skipped = false;
+  /// vocab_tree: the tree used, whether it was built in this run and the
+  /// time of building it (this run or as recorded).
+  std::string vocab_tree_path;
+  bool vocab_tree_built = false;
+  double recorded_vocab_tree_seconds = 0.0;
+  /// slurm: shards and blocks of this configuration.
+  size_t feature_shards = 0;
+  size_t matching_blocks = 0;
   /// Fingerprint of the matched database's inputs; later stages include it
   /// in theirs.
   std::string fingerprint;
@@ -258,7 +317,9 @@ struct FeaturePipelineResult {
 
 /// Runs stages 1-3 into `workspace_path` (created if missing): the image
 /// list WORKSPACE/image_list.txt, WORKSPACE/database.db, the ledger
-/// WORKSPACE/stages.json, colmap logs in WORKSPACE/logs/. Skipped files are
+/// WORKSPACE/stages.json, colmap logs in WORKSPACE/logs/, a built
+/// vocabulary tree WORKSPACE/vocab_tree.bin, the Slurm tasks in
+/// WORKSPACE/slurm/. Skipped files are
 /// logged and listed in WORKSPACE/skipped_images.txt. Throws hisfm::Error on
 /// an empty or missing folder, a missing colmap or a failing colmap call.
 FeaturePipelineResult RunFeaturePipeline(const std::string& image_path,

@@ -370,5 +370,68 @@ TEST(RunFeaturePipeline, ExtractsMatchesAndResumes) {
   EXPECT_EQ(db.NumVerifiedPairs(1), 3u);
 }
 
+// Retrieval on six downscaled photos of books: a tree built once from the
+// photos' descriptors and kept in the workspace, each photo matched with
+// the photos it retrieves only.
+TEST(RunFeaturePipeline, VocabTreeMatchesRetrievedPairsOnly) {
+  const std::string src = SharedDataPath("yan2017/books", "images");
+  if (src.empty()) GTEST_SKIP() << "shared data not found (HISFM_DATA_DIR)";
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap not installed";
+  TempDir tmp;
+  const std::string images = tmp / "images";
+  fs::create_directories(images);
+  for (int i = 0; i < 6; ++i) {
+    const std::string name = StrCat("000", i, ".jpg");
+    fs::copy_file(src + "/" + name, images + "/" + name);
+  }
+  FeaturePipelineOptions options;
+  options.extractor_args = {"--SiftExtraction.max_image_size", "400"};
+  options.matcher = "vocab_tree";
+  options.num_neighbors = 2;
+  const std::string ws = tmp / "ws";
+  const FeaturePipelineResult first = RunFeaturePipeline(images, ws, options);
+  EXPECT_TRUE(first.vocab_tree_built);
+  EXPECT_EQ(first.vocab_tree_path, ws + "/vocab_tree.bin");
+  EXPECT_TRUE(fs::exists(first.vocab_tree_path));
+  EXPECT_FALSE(fs::exists(ws + "/vocab_tree.tmp.bin"));
+  EXPECT_NE(ReadTextFile(ws + "/logs/vocab_tree_builder.log")
+                .find("--num_visual_words 512"),
+            std::string::npos);
+  size_t matched = 0;
+  {
+    Database db(first.database_path);
+    // Each photo is matched with at most 2 others: at most 6 of the 15 pairs
+    // (fewer when two photos retrieve each other).
+    matched = db.ReadVerifiedPairs(1).size();
+    EXPECT_GE(matched, 3u);
+    EXPECT_LE(matched, 6u);
+  }
+  // More neighbours: matching again with the same tree.
+  options.num_neighbors = 5;
+  const FeaturePipelineResult second = RunFeaturePipeline(images, ws, options);
+  EXPECT_TRUE(second.extraction_skipped);
+  EXPECT_FALSE(second.vocab_tree_built);
+  EXPECT_FALSE(second.matching_skipped);
+  EXPECT_NE(second.fingerprint, first.fingerprint);
+  {
+    Database db(second.database_path);
+    EXPECT_GT(db.NumVerifiedPairs(1), matched);
+  }
+  // A given tree is used as is (nothing is built).
+  fs::copy_file(ws + "/vocab_tree.bin", tmp / "tree.bin");
+  options.vocab_tree_path = tmp / "tree.bin";
+  const FeaturePipelineResult third = RunFeaturePipeline(images, ws, options);
+  EXPECT_FALSE(third.vocab_tree_built);
+  EXPECT_EQ(third.vocab_tree_path, tmp / "tree.bin");
+  EXPECT_FALSE(third.matching_skipped);
+  EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 6), 512);
+  EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 1), 256);
+  EXPECT_EQ(VocabTreeBuildWords(FeaturePipelineOptions(), 100000), 65536);
+  EXPECT_EQ(VocabTreeBuildImages(21, 4000.0), 21u);
+  EXPECT_EQ(VocabTreeBuildImages(1000, 4000.0), 50u);
+  EXPECT_EQ(VocabTreeBuildImages(1000, 0.0), 1000u);
+  EXPECT_EQ(VocabTreeBuildImages(3, 1e9), 1u);
+}
+
 }  // namespace
 }  // namespace hisfm

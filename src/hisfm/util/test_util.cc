@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "hisfm/util/error.h"
+
 namespace fs = std::filesystem;
 
 namespace hisfm {
@@ -50,6 +52,33 @@ int RunShell(const std::string& command, const std::string& log_path) {
 }
 
 bool ColmapAvailable() { return RunShell("colmap help") == 0; }
+
+std::string UseLocalSlurmCluster() {
+  if (RunShell("command -v sbatch && command -v squeue") != 0) {
+    return "Slurm is not installed (scripts/setup.sh installs slurm-wlm and "
+           "munge): the Slurm tests are skipped";
+  }
+  const char* binary_dir = std::getenv("HISFM_BINARY_DIR");
+  const std::string env_file =
+      std::string(binary_dir ? binary_dir : ".") + "/local_slurm.env";
+  std::ifstream in(env_file);
+  std::string line;
+  std::getline(in, line);
+  const std::string prefix = "export SLURM_CONF=";
+  if (line.rfind(prefix, 0) != 0) {
+    throw Error("Slurm is installed but no local cluster was started ("
+                + env_file +
+                " is missing or empty): run the test through ctest, whose "
+                "fixture runs scripts/local_slurm.sh start");
+  }
+  const std::string conf = line.substr(prefix.size());
+  setenv("SLURM_CONF", conf.c_str(), 1);
+  if (RunShell("timeout 20 sinfo -h") != 0) {
+    throw Error("the local Slurm cluster (SLURM_CONF=" + conf +
+                ") does not answer: see its logs beside that file");
+  }
+  return "";
+}
 
 uint64_t FileFingerprint(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -35,6 +35,13 @@ int RunShell(const std::string& command, const std::string& log_path = "");
 /// True if `colmap` can be run.
 bool ColmapAvailable();
 
+/// Points SLURM_CONF at the one-machine cluster that ctest starts with
+/// scripts/local_slurm.sh (its `export SLURM_CONF=...` line is in
+/// $HISFM_BINARY_DIR/local_slurm.env) and returns "" if it answers; else
+/// returns why the Slurm tests are skipped (Slurm not installed). Throws
+/// hisfm::Error if Slurm is installed but the cluster does not answer.
+std::string UseLocalSlurmCluster();
+
 /// SHA-like fingerprint of a file's bytes (FNV-1a 64), for "unchanged" checks.
 uint64_t FileFingerprint(const std::string& path);
 
