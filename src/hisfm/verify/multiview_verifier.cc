@@ -1,10 +1,9 @@
 #include "hisfm/verify/multiview_verifier.h"
 
-#include "hisfm/util/interrupt.h"
-
 #include <algorithm>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
 #include "hisfm/verify/match_burstiness.h"
 
 namespace hisfm {
