@@ -76,17 +76,28 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
     EXPECT_TRUE(Contains(ce, e.pair));
     EXPECT_TRUE(Contains(edges, e.pair));
   }
-  // Cleaned inliers: one entry per edge of the hierarchy, a subset of the
-  // pair's inliers.
+  // Reserve edges: inside a component, not in the hierarchy, scoring at
+  // least the bridges' threshold and below the support threshold.
+  const double tau = HierarchyOptions().skeleton.verify_threshold;
+  for (const ViewGraphEdge& e : v.reserve_edges) {
+    EXPECT_FALSE(Contains(edges, e.pair));
+    const double score = verifier.ScoreOf(e.pair);
+    EXPECT_GE(score, tau);
+    EXPECT_LT(score, options.support_threshold);
+  }
+  // Cleaned inliers: one entry per edge of the hierarchy and per reserve
+  // edge, a subset of the pair's inliers.
+  std::vector<ImagePair> used = edges;
+  for (const ViewGraphEdge& e : v.reserve_edges) used.push_back(e.pair);
   if (!options.clean_inliers) {
     EXPECT_TRUE(v.inliers.empty());
     EXPECT_EQ(v.num_inliers_before, 0u);
     EXPECT_EQ(v.num_inliers_after, 0u);
     return;
   }
-  EXPECT_EQ(v.inliers.size(), edges.size());
+  EXPECT_EQ(v.inliers.size(), used.size());
   size_t before = 0, after = 0;
-  for (const ImagePair& p : edges) {
+  for (const ImagePair& p : used) {
     auto it = v.inliers.find(p);
     ASSERT_NE(it, v.inliers.end());
     const std::vector<FeatureMatch>& stored =
