@@ -26,10 +26,10 @@ cd build-sanitize
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:strict_string_checks=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 echo "==> Test suite under ASan/UBSan"
-# Except the end-to-end runs on the shared photo scenes (colmap's feature
-# extraction, matching and mapping of real photos; 5 to 15 minutes each under
-# the sanitizers): scripts/test.sh runs them, and the code of hisfm they reach
-# runs here in the synthetic pipeline tests.
+# Except the end-to-end runs on the shared real scenes (feature extraction,
+# matching, verification of every pair and mapping of real photos; 5 to 15
+# minutes each under the sanitizers): scripts/test.sh runs them, and the code
+# of hisfm they reach runs here in the synthetic pipeline tests.
 ctest --output-on-failure -j2 --timeout 1800 -LE fuzz \
   -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrectWhereColmapFolds|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
 tested=$(date +%s)
