@@ -124,9 +124,22 @@ TEST(ReconstructSlurm, BooksGivesTheLocalDatabase) {
       EXPECT_EQ(other.camera_id, 1u);
       EXPECT_EQ(a.ReadKeypoints(im.image_id), b.ReadKeypoints(other.image_id))
           << im.name;
-      EXPECT_EQ(a.ReadDescriptors(im.image_id),
-                b.ReadDescriptors(other.image_id))
-          << im.name;
+      // colmap 3.8's CPU SIFT leaves the descriptor of a keypoint on a flat
+      // patch undefined (measured on books 0008.jpg: one row of 3,292
+      // differs between two runs with the same options, all zeros in one
+      // and 255 in the first byte in the other), so all but one row in a
+      // thousand must be identical.
+      const Descriptors da = a.ReadDescriptors(im.image_id);
+      const Descriptors db = b.ReadDescriptors(other.image_id);
+      ASSERT_EQ(da.rows(), db.rows()) << im.name;
+      ASSERT_EQ(da.cols(), db.cols()) << im.name;
+      Eigen::Index differing_rows = 0;
+      for (Eigen::Index r = 0; r < da.rows(); ++r) {
+        differing_rows += da.row(r) != db.row(r);
+      }
+      EXPECT_LE(differing_rows, 1 + da.rows() / 1000)
+          << im.name << ": " << differing_rows << " of " << da.rows()
+          << " descriptors differ";
     }
     ASSERT_EQ(a.ReadCameras().size(), 1u);
     ASSERT_EQ(b.ReadCameras().size(), 1u);
