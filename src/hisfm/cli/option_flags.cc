@@ -53,6 +53,12 @@ void AddHierarchicalMapperFlags(CLI::App& app,
                  "best-scoring bridge already scored if it reaches this "
                  "(>= verify_threshold: off)")
       ->capture_default_str();
+  app.add_option("--HiSfM.max_cycle_rotation_deg",
+                 h.skeleton.max_cycle_rotation_deg,
+                 "A bridge closing a cycle with the skeleton is taken only if "
+                 "the cycle's rotations compose within this (degrees; 0: "
+                 "off)")
+      ->capture_default_str();
   app.add_option("--HiSfM.leaf_edges", h.leaves.leaf_edges,
                  "Edges per leaf to skeletal images of its community")
       ->capture_default_str();

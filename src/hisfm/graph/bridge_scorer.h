@@ -22,6 +22,15 @@ class BridgeScorer {
   virtual std::vector<double> Score(const std::vector<ImagePair>& pairs) = 0;
   /// How many pairs the scorer prefers per call (1 = strictly lazy).
   virtual size_t PreferredBatchSize() const { return 1; }
+  /// The rotation error (degrees) around the closed walk `cycle` = (v0, v1,
+  /// ..., vn, back to v0), each consecutive pair an edge of the view graph:
+  /// the angle of the composition of the pairs' relative rotations, which is
+  /// zero for a loop of true pairs (Zach, Klopschitz, Pollefeys, CVPR 2010).
+  /// Negative if the scorer cannot tell (the default).
+  virtual double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) {
+    (void)cycle;
+    return -1.0;
+  }
 };
 
 /// The default of the foundation: accepts every bridge with score 1.

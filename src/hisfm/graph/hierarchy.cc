@@ -39,6 +39,10 @@ Hierarchy BuildHierarchy(const ViewGraph& graph, BridgeScorer* scorer,
           size_t PreferredBatchSize() const override {
             return s->PreferredBatchSize();
           }
+          double CycleRotationErrorDeg(
+              const std::vector<ImageId>& cycle) override {
+            return s->CycleRotationErrorDeg(cycle);
+          }
         };
         return std::make_unique<Borrowed>(scorer);
       },
@@ -110,10 +114,13 @@ const char* RoleName(BridgeRole role) {
 }
 
 nlohmann::json BridgeToJson(const BridgeRecord& b) {
-  return {{"image_id1", b.pair.image_id1}, {"image_id2", b.pair.image_id2},
-          {"community1", b.community1},   {"community2", b.community2},
-          {"inliers", b.weight},          {"score", b.score},
-          {"role", RoleName(b.role)},     {"tree", b.tree}};
+  nlohmann::json j = {
+      {"image_id1", b.pair.image_id1}, {"image_id2", b.pair.image_id2},
+      {"community1", b.community1},   {"community2", b.community2},
+      {"inliers", b.weight},          {"score", b.score},
+      {"role", RoleName(b.role)},     {"tree", b.tree}};
+  if (b.cycle_error_deg >= 0) j["cycle_error_deg"] = b.cycle_error_deg;
+  return j;
 }
 
 nlohmann::json EdgeToJson(const ViewGraphEdge& e) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <queue>
 #include <set>
 #include <unordered_map>
 
@@ -23,6 +24,8 @@ void SkeletonOptions::Check() const {
   HISFM_CHECK_OPTION(weak_link_max_inliers >= 0);
   HISFM_CHECK_OPTION(max_verify_batch_size >= 1);
   HISFM_CHECK_OPTION(fallback_threshold >= 0.0 && fallback_threshold <= 1.0);
+  HISFM_CHECK_OPTION(max_cycle_rotation_deg >= 0.0 &&
+                     max_cycle_rotation_deg <= 180.0);
 }
 
 int SkeletonOptions::NumTreesFor(size_t num_images) const {
@@ -218,13 +221,15 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
 // until each component of the full community graph is K-edge-connected.
 // `used[kappa]` marks the community pairs of the skeleton, `kappas` lists
 // them by dense id.
-template <typename RejectFn>
-void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges, size_t m, int K,
-                         const std::vector<CommunityPair>& kappas,
-                         const SkeletonOptions& options, ScoreCache* cache,
-                         std::vector<char>* used,
-                         std::vector<char>* in_skeleton, Skeleton* skeleton,
-                         RejectFn&& reject) {
+// `admit(k, role)` verifies bridge k (recording a rejection) and returns
+// whether it may be taken; `take(k)` takes it.
+template <typename AdmitFn, typename TakeFn>
+void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges,
+                                   size_t m, int K,
+                                   const std::vector<CommunityPair>& kappas,
+                                   const SkeletonOptions& options,
+                                   ScoreCache* cache, std::vector<char>* used,
+                                   AdmitFn&& admit, TakeFn&& take) {
   UnionFind all(m);
   for (const Bridge& b : bridges) all.Union(b.c1, b.c2);
   // Bridges that may still be taken: not rejected yet (a rejected one would
@@ -270,21 +275,14 @@ void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges, size_t m,
             (*used)[b.kappa]) {
           continue;
         }
-        // (A bridge rejected here is recorded once and skipped from then on:
-        // its score stays cached.)
-        const double score = cache->Get(k);
-        if (score < options.verify_threshold) {
-          reject(k, score, BridgeRole::kConnectivity);
-          continue;
-        }
+        // (A bridge rejected here is recorded once; its score stays cached.)
+        if (!admit(k, BridgeRole::kConnectivity)) continue;
         (*used)[b.kappa] = 1;
         // (Kept in ascending order: the cut's input does not change.)
         used_kappas.insert(std::lower_bound(used_kappas.begin(),
                                             used_kappas.end(), b.kappa),
                            b.kappa);
-        (*in_skeleton)[k] = 1;
-        skeleton->bridges.push_back(
-            MakeRecord(b, score, true, BridgeRole::kConnectivity, -1));
+        take(k);
         added = true;
         break;
       }
@@ -322,6 +320,7 @@ class SkeletonBuilder {
       b.kappa = it->second;
     }
     used_.assign(kappas_.size(), 0);
+    for (const ViewGraphEdge& e : communities.top_k_edges) Link(e.pair);
     rejected_seen_.assign(bridges_.size(), 0);
     in_skeleton_.assign(bridges_.size(), 0);
     cache_ = std::make_unique<ScoreCache>(bridges_, scorer, &skeleton_);
@@ -342,18 +341,37 @@ class SkeletonBuilder {
   Skeleton Finish(const ViewGraph& graph, const Communities& communities);
 
  private:
-  void Reject(size_t k, double score, BridgeRole role) {
+  void Reject(size_t k, double score, BridgeRole role,
+              double cycle_error_deg = -1.0) {
     if (!rejected_seen_[k]) {
       rejected_seen_[k] = 1;
       skeleton_.rejected.push_back(
           MakeRecord(bridges_[k], score, false, role, -1));
+      skeleton_.rejected.back().cycle_error_deg = cycle_error_deg;
     }
   }
   void Take(size_t k, double score, BridgeRole role, int tree) {
     in_skeleton_[k] = 1;
     skeleton_.bridges.push_back(MakeRecord(bridges_[k], score, true, role,
                                            tree));
+    const auto error = cycle_error_.find(k);
+    if (error != cycle_error_.end()) {
+      skeleton_.bridges.back().cycle_error_deg = error->second;
+    }
+    Link(bridges_[k].pair);
   }
+  // Adds an edge to the image graph of what the skeleton holds.
+  void Link(const ImagePair& p) {
+    held_[p.image_id1].push_back(p.image_id2);
+    held_[p.image_id2].push_back(p.image_id1);
+  }
+  // The images of a shortest path from `a` to `b` over the edges held;
+  // empty if there is none.
+  std::vector<ImageId> HeldPath(ImageId a, ImageId b) const;
+  // Whether bridge k may be taken: its score reaches tau and the cycle it
+  // closes with the skeleton, if any, is rotation consistent. Records a
+  // rejection with `role`.
+  bool Admit(size_t k, BridgeRole role);
 
   const SkeletonOptions& options_;
   const size_t m_;
@@ -366,7 +384,57 @@ class SkeletonBuilder {
   std::vector<char> used_;           // U: community pairs of the skeleton.
   std::vector<char> rejected_seen_;  // Recorded once.
   std::vector<char> in_skeleton_;
+  // Image graph of the communities' top-k edges and the bridges taken.
+  std::unordered_map<ImageId, std::vector<ImageId>> held_;
+  // Rotation error of the cycle each bridge closed when admitted (-1: none).
+  std::unordered_map<size_t, double> cycle_error_;
 };
+
+std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
+  if (!held_.count(a) || !held_.count(b)) return {};
+  std::unordered_map<ImageId, ImageId> parent{{a, a}};
+  std::queue<ImageId> queue;
+  queue.push(a);
+  while (!queue.empty() && !parent.count(b)) {
+    const ImageId v = queue.front();
+    queue.pop();
+    for (const ImageId w : held_.at(v)) {
+      if (parent.emplace(w, v).second) queue.push(w);
+    }
+  }
+  if (!parent.count(b)) return {};
+  std::vector<ImageId> path{b};
+  while (path.back() != a) path.push_back(parent.at(path.back()));
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
+  if (rejected_seen_[k]) return false;
+  // The cycle first: it costs two breadth-first searches' worth of work
+  // and the poses of the pairs on it, where a score can cost a network
+  // evaluation; a bridge its cycle rejects is never scored.
+  cycle_error_[k] = -1.0;
+  if (options_.max_cycle_rotation_deg > 0 && scorer_ != nullptr) {
+    const ImagePair& p = bridges_[k].pair;
+    const std::vector<ImageId> cycle = HeldPath(p.image_id1, p.image_id2);
+    if (!cycle.empty()) {
+      // The path a..b closes through the bridge b-a.
+      const double error = scorer_->CycleRotationErrorDeg(cycle);
+      cycle_error_[k] = error;
+      if (error > options_.max_cycle_rotation_deg) {
+        Reject(k, cache_->Has(k) ? cache_->Get(k) : kNotScored, role, error);
+        return false;
+      }
+    }
+  }
+  const double score = cache_->Get(k);
+  if (score < options_.verify_threshold) {
+    Reject(k, score, role);
+    return false;
+  }
+  return true;
+}
 
 bool SkeletonBuilder::PackTrees() {
   // A tree can hold at most m - c edges, c = components of the community
@@ -415,9 +483,7 @@ bool SkeletonBuilder::PackTrees() {
         }
         cache_->Fill(todo);
       }
-      const double score = cache_->Get(k);
-      if (score < options_.verify_threshold) {
-        Reject(k, score, BridgeRole::kTree);
+      if (!Admit(k, BridgeRole::kTree)) {
         ++rejection_run;
         continue;
       }
@@ -425,7 +491,7 @@ bool SkeletonBuilder::PackTrees() {
       uf.Union(b.c1, b.c2);
       tree_pairs.push_back(b.kappa);
       ++tree_size;
-      Take(k, score, BridgeRole::kTree, t);
+      Take(k, cache_->Get(k), BridgeRole::kTree, t);
     }
     all_trees_span &= tree_size == max_tree_edges;
     for (uint32_t kappa : tree_pairs) used_[kappa] = 1;
@@ -443,8 +509,10 @@ bool SkeletonBuilder::PackTrees() {
 void SkeletonBuilder::RestoreConnectivity() {
   RestoreConnectivityAcrossCuts(
       bridges_, m_, skeleton_.num_trees, kappas_, options_, cache_.get(),
-      &used_, &in_skeleton_, &skeleton_,
-      [&](size_t k, double score, BridgeRole role) { Reject(k, score, role); });
+      &used_, [&](size_t k, BridgeRole role) { return Admit(k, role); },
+      [&](size_t k) {
+        Take(k, cache_->Get(k), BridgeRole::kConnectivity, -1);
+      });
 }
 
 void SkeletonBuilder::AddBackupBridges() {
@@ -464,13 +532,11 @@ void SkeletonBuilder::AddBackupBridges() {
   }
   for (size_t k = 0; k < bridges_.size() && num_weak > 0; ++k) {
     const Bridge& b = bridges_[k];
-    if (wanted[b.kappa] <= 0 || in_skeleton_[k]) continue;
-    const double score = cache_->Get(k);
-    if (score < options_.verify_threshold) {
-      Reject(k, score, BridgeRole::kBackup);
+    if (wanted[b.kappa] <= 0 || in_skeleton_[k] || rejected_seen_[k]) {
       continue;
     }
-    Take(k, score, BridgeRole::kBackup, -1);
+    if (!Admit(k, BridgeRole::kBackup)) continue;
+    Take(k, cache_->Get(k), BridgeRole::kBackup, -1);
     if (--wanted[b.kappa] == 0) --num_weak;
   }
 }
@@ -480,14 +546,10 @@ void SkeletonBuilder::AddTopWeightBridges() {
   for (size_t k = 0; k < bridges_.size(); ++k) {
     if (num_top >= options_.num_top_bridges) break;
     const Bridge& b = bridges_[k];
-    if (in_skeleton_[k] || used_[b.kappa]) continue;
-    const double score = cache_->Get(k);
-    if (score < options_.verify_threshold) {
-      Reject(k, score, BridgeRole::kTopWeight);
-      continue;
-    }
+    if (in_skeleton_[k] || used_[b.kappa] || rejected_seen_[k]) continue;
+    if (!Admit(k, BridgeRole::kTopWeight)) continue;
     used_[b.kappa] = 1;
-    Take(k, score, BridgeRole::kTopWeight, -1);
+    Take(k, cache_->Get(k), BridgeRole::kTopWeight, -1);
     ++num_top;
   }
 }

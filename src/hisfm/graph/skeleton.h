@@ -10,12 +10,16 @@
 // and each at most once. Greedy packing can fail to find K trees that exist;
 // the union is then repaired across minimum cuts (Stoer-Wagner) so that it is
 // K-edge-connected, as the paper's Tutte-Nash-Williams argument expects.
-// Optional extra bridges (top-weight ones, and backups
-// for weak links) are verified too. When the trees cannot span (every bridge
-// between some communities scored below tau), the best-scoring bridges that
-// were scored join what is left apart, if they reach a lower fallback
-// threshold (failing soft: one model through its most trustworthy bridge,
-// rather than pieces). Skeletal images of one community are then
+// Optional extra bridges (top-weight ones, and backups for weak links) are
+// verified too. Every bridge that closes a cycle with the skeleton built so
+// far (all but the first tree's) must also be loop consistent in rotation
+// (SkeletonOptions::max_cycle_rotation_deg; an addition to Algorithm 1,
+// checked before the bridge is scored, so it scores fewer pairs, not more).
+// When the trees cannot span (every bridge between some communities scored
+// below tau), the best-scoring bridges that were scored join what is left
+// apart, if they reach a lower fallback threshold (failing soft: one model
+// through its most trustworthy bridge, rather than pieces). Skeletal images
+// of one community are then
 // joined by intra-community edges (no verification).
 //
 // Kruskal is kept exact (a deferral rule that was tried verified more
@@ -67,6 +71,18 @@ struct SkeletonOptions {
   /// models. No bridge is scored for it. A value >= verify_threshold turns
   /// it off.
   double fallback_threshold = 0.5;
+  /// A bridge that closes a cycle with edges already in the skeleton (every
+  /// bridge after the first tree: later trees, backups, top-weight and
+  /// connectivity bridges) is taken only if the relative rotations around
+  /// the shortest such cycle compose to within this many degrees of the
+  /// identity (loop consistency, Zach et al. CVPR 2010); the cycle runs over
+  /// the communities' top-k edges and the bridges taken. A doppelganger of a
+  /// symmetric object passes a two-view test but turns its loop by the
+  /// symmetry. The cycle is checked before the bridge is scored, so a
+  /// bridge it rejects costs no verifier call. Needs a scorer that reports
+  /// rotations (BridgeScorer::CycleRotationErrorDeg); 0 turns the check
+  /// off.
+  double max_cycle_rotation_deg = 45.0;
 
   void Check() const;
   /// K for a graph of `num_images` images.
@@ -82,11 +98,17 @@ struct BridgeRecord {
   CommunityId community1 = kInvalidCommunityId;
   CommunityId community2 = kInvalidCommunityId;
   uint32_t weight = 0;
+  /// The scorer's score; negative if the bridge was rejected by its cycle
+  /// (SkeletonOptions::max_cycle_rotation_deg) before being scored.
   double score = 1.0;
   bool accepted = false;
   BridgeRole role = BridgeRole::kTree;
   /// Tree index (0-based) for kTree bridges, -1 otherwise.
   int tree = -1;
+  /// Rotation error (degrees) of the cycle the bridge closed with the
+  /// skeleton when it was considered; negative if it closed none or the
+  /// scorer could not tell.
+  double cycle_error_deg = -1.0;
 };
 
 /// The skeletal subgraph G_s = (V_s, E_s).

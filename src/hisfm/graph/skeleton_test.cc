@@ -575,3 +575,105 @@ TEST(Skeleton, FallbackThresholdOutOfRangeIsRejected) {
 
 }  // namespace
 }  // namespace hisfm
+
+namespace hisfm {
+namespace {
+
+// Accepts every bridge (score 0.9); a cycle turns by 180 degrees per
+// "folded" pair on it (a doppelganger of a two-fold symmetric object), and
+// every cycle asked about is recorded.
+class CycleScorer : public BridgeScorer {
+ public:
+  std::set<ImagePair> folded;
+  std::vector<std::vector<ImageId>> cycles;
+  std::string Name() const override { return "cycle"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    return std::vector<double>(pairs.size(), 0.9);
+  }
+  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
+    cycles.push_back(cycle);
+    int turns = 0;
+    for (size_t k = 0; k < cycle.size(); ++k) {
+      turns += folded.count(
+          ImagePair(cycle[k], cycle[(k + 1) % cycle.size()]));
+    }
+    return turns % 2 ? 180.0 : 0.0;
+  }
+};
+
+TEST(SkeletonCycles, LaterTreesRejectBridgesThatTurnTheirLoop) {
+  const ViewGraph g = ClusteredGraph(6, 4, 0.5, 3);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_GT(c.NumCommunities(), 2u);
+  // Fold the heaviest bridges after the first tree would have been built:
+  // every bridge not in the first tree of an unchecked build.
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.num_backup_bridges = 0;
+  CycleScorer plain;
+  const Skeleton first = BuildSkeleton(g, c, &plain, options);
+  EXPECT_TRUE(plain.cycles.empty()) << "one tree closes no cycle";
+  std::set<ImagePair> tree_pairs;
+  for (const BridgeRecord& b : first.bridges) tree_pairs.insert(b.pair);
+
+  CycleScorer scorer;
+  for (const ViewGraphEdge& e : g.Edges()) {
+    if (c.Of(e.pair.image_id1) != c.Of(e.pair.image_id2) &&
+        !tree_pairs.count(e.pair) && e.pair.image_id1 % 2 == 0) {
+      scorer.folded.insert(e.pair);
+    }
+  }
+  ASSERT_FALSE(scorer.folded.empty());
+  options.num_trees = 2;
+  const Skeleton checked = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_FALSE(scorer.cycles.empty());
+  size_t num_cycle_rejected = 0;
+  for (const BridgeRecord& b : checked.bridges) {
+    EXPECT_FALSE(scorer.folded.count(b.pair))
+        << b.pair.image_id1 << "-" << b.pair.image_id2 << " taken";
+    if (b.tree == 0) {
+      EXPECT_LT(b.cycle_error_deg, 0.0);
+    } else if (b.tree == 1) {
+      EXPECT_EQ(b.cycle_error_deg, 0.0);
+    }
+  }
+  for (const BridgeRecord& b : checked.rejected) {
+    if (b.cycle_error_deg >= 0) {
+      EXPECT_EQ(b.cycle_error_deg, 180.0);
+      EXPECT_TRUE(scorer.folded.count(b.pair));
+      EXPECT_LT(b.score, 0.0) << "rejected by its cycle before scoring";
+      ++num_cycle_rejected;
+    }
+  }
+  EXPECT_GT(num_cycle_rejected, 0u);
+  // Every scored bridge passed (the scorer accepts all): only the bridges
+  // taken were scored.
+  EXPECT_EQ(checked.num_verified, checked.bridges.size());
+  // Each cycle asked about runs over the communities' top-k edges and the
+  // bridges taken before, from one end of the bridge to the other.
+  std::set<ImagePair> held;
+  for (const ViewGraphEdge& e : c.top_k_edges) held.insert(e.pair);
+  for (const BridgeRecord& b : checked.bridges) held.insert(b.pair);
+  for (const std::vector<ImageId>& cycle : scorer.cycles) {
+    ASSERT_GE(cycle.size(), 2u);
+    EXPECT_GT(g.Weight(cycle.front(), cycle.back()), 0u);
+    for (size_t k = 0; k + 1 < cycle.size(); ++k) {
+      EXPECT_TRUE(held.count(ImagePair(cycle[k], cycle[k + 1])));
+    }
+  }
+
+  // Off: the folded bridges are taken like any other.
+  options.max_cycle_rotation_deg = 0;
+  CycleScorer off;
+  off.folded = scorer.folded;
+  const Skeleton unchecked = BuildSkeleton(g, c, &off, options);
+  EXPECT_TRUE(off.cycles.empty());
+  size_t num_folded_taken = 0;
+  for (const BridgeRecord& b : unchecked.bridges) {
+    num_folded_taken += off.folded.count(b.pair);
+  }
+  EXPECT_GT(num_folded_taken, 0u);
+}
+
+}  // namespace
+}  // namespace hisfm

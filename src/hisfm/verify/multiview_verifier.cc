@@ -1,6 +1,7 @@
 #include "hisfm/verify/multiview_verifier.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/interrupt.h"
@@ -88,6 +89,41 @@ PairFeatures MultiViewVerifier::Features(const ImagePair& pair) {
 
 double MultiViewVerifier::ScoreOf(const ImagePair& pair) {
   return CalibratedPairScore(Features(pair));
+}
+
+bool MultiViewVerifier::RelativeRotation(ImageId from, ImageId to,
+                                         Eigen::Quaterniond* to_from_from) {
+  const ImagePair pair(from, to);
+  const std::shared_ptr<const PairGeometry> geometry =
+      cache_.Pair(pair.image_id1, pair.image_id2);
+  if (geometry->hypotheses.empty()) return false;
+  size_t h = 0;
+  const auto it = evidence_.find(pair);
+  if (it != evidence_.end() && it->second.hypothesis >= 0) {
+    h = static_cast<size_t>(it->second.hypothesis);
+  }
+  // The geometry is oriented from the smaller id to the larger.
+  const Eigen::Quaterniond r2_from_r1 =
+      geometry->hypotheses[h].cam2_from_cam1.rotation;
+  *to_from_from = from == pair.image_id1 ? r2_from_r1 : r2_from_r1.inverse();
+  return true;
+}
+
+double MultiViewVerifier::CycleRotationErrorDeg(
+    const std::vector<ImageId>& cycle) {
+  if (cycle.size() < 2) return -1.0;
+  Eigen::Quaterniond total = Eigen::Quaterniond::Identity();
+  for (size_t k = 0; k < cycle.size(); ++k) {
+    const ImageId from = cycle[k];
+    const ImageId to = cycle[(k + 1) % cycle.size()];
+    Eigen::Quaterniond step;
+    if (!cache_.HasPair(from, to) || !RelativeRotation(from, to, &step)) {
+      return -1.0;
+    }
+    total = step * total;
+  }
+  return total.normalized().angularDistance(Eigen::Quaterniond::Identity()) *
+         180.0 / M_PI;
 }
 
 std::vector<double> MultiViewVerifier::Score(

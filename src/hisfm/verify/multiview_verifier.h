@@ -60,6 +60,14 @@ class MultiViewVerifier : public BridgeScorer {
   PairFeatures Features(const ImagePair& pair);
   /// The calibrated score of a pair (pair_score.h), in (0, 1).
   double ScoreOf(const ImagePair& pair);
+  /// Composes the relative rotations of the cycle's pairs (each the
+  /// hypothesis its edge test accepted, else the best-supported one);
+  /// negative if a pair has no pose.
+  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override;
+  /// The relative rotation to_from_from of an edge: the hypothesis its edge
+  /// test joined by if the pair was evaluated, else the best-supported one;
+  /// false if the pair has no pose.
+  bool RelativeRotation(ImageId from, ImageId to, Eigen::Quaterniond* to_from_from);
   /// The ego model of `ego` built without `exclude` (computed once).
   const LocalModel& EgoModel(ImageId ego, ImageId exclude);
   /// The pair's inlier matches (oriented as stored: the smaller image id's

@@ -210,6 +210,40 @@ TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndExcludeTheOtherImage) {
   }
 }
 
+TEST_F(MultiViewVerifierTest, TrueTrianglesCloseInRotation) {
+  // Every triangle of true pairs: the relative rotations compose to the
+  // identity within the noise of the poses.
+  const ViewGraph& g = street_->graph;
+  size_t num_triangles = 0;
+  for (const ViewGraphEdge& e : g.Edges()) {
+    if (!IsTrue(e.pair)) continue;
+    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
+    for (const ImageId c : g.Images()) {
+      if (c <= b || g.Weight(b, c) == 0 || g.Weight(a, c) == 0) continue;
+      if (!IsTrue(ImagePair(b, c)) || !IsTrue(ImagePair(a, c))) continue;
+      const double error = verifier_->CycleRotationErrorDeg({a, b, c});
+      ASSERT_GE(error, 0.0);
+      EXPECT_LT(error, 3.0) << a << " " << b << " " << c;
+      // Walked the other way round: the same loop.
+      EXPECT_NEAR(verifier_->CycleRotationErrorDeg({c, b, a}), error, 1e-6);
+      ++num_triangles;
+    }
+  }
+  EXPECT_GT(num_triangles, 10u);
+  Eigen::Quaterniond ab, ba;
+  const ImagePair p = g.Edges()[0].pair;
+  ASSERT_TRUE(verifier_->RelativeRotation(p.image_id1, p.image_id2, &ab));
+  ASSERT_TRUE(verifier_->RelativeRotation(p.image_id2, p.image_id1, &ba));
+  EXPECT_LT((ab * ba).angularDistance(Eigen::Quaterniond::Identity()), 1e-9);
+}
+
+TEST_F(MultiViewVerifierTest, CycleThroughAMissingPairIsUnknown) {
+  const ImageId a = street_->graph.Images()[0];
+  const ImageId absent = street_->graph.Images().back() + 1;
+  EXPECT_LT(verifier_->CycleRotationErrorDeg({a, absent}), 0.0);
+  EXPECT_LT(verifier_->CycleRotationErrorDeg({a}), 0.0);
+}
+
 TEST(MultiViewVerifierOptions, CheckRejectsOutOfRangeValues) {
   EXPECT_NO_THROW(MultiViewVerifierOptions().Check());
   MultiViewVerifierOptions o;
