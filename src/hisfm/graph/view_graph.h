@@ -52,9 +52,6 @@ class ViewGraph {
   std::vector<ImagePair> Pairs() const;
   /// Weight of the edge between a and b, 0 if there is none.
   uint32_t Weight(ImageId a, ImageId b) const;
-  /// Connected components (each sorted), largest first; isolated images form
-  /// singleton components.
-  std::vector<std::vector<ImageId>> ConnectedComponents() const;
 
  private:
   void BuildAdjacency();

@@ -64,7 +64,7 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   EXPECT_NEAR(tracks.InconsistentFraction(), 6.0 / 8.0, 1e-12);
 
   const TwoViewGeometry g13 = db.ReadTwoViewGeometry(1, 3);
-  DistinctiveSupport s = tracks.Support(g13);
+  DistinctiveSupport s = tracks.Support(g13.pair, g13.inlier_matches);
   EXPECT_EQ(s.num_inliers, 2u);
   EXPECT_EQ(s.num_distinctive, 1u);
   EXPECT_NEAR(s.image_fraction, 1.0 / 3.0, 1e-12);  // both images: 1 of 3
@@ -73,7 +73,8 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   EXPECT_EQ(s.p_value, 1.0);         // no shortfall
   EXPECT_FALSE(s.Deficient(0.5, 0.01));
   // Pair (1, 2): nothing distinctive expected from image 2.
-  s = tracks.Support(db.ReadTwoViewGeometry(1, 2));
+  const TwoViewGeometry g12 = db.ReadTwoViewGeometry(1, 2);
+  s = tracks.Support(g12.pair, g12.inlier_matches);
   EXPECT_EQ(s.expected, 0.0);
   EXPECT_EQ(s.ratio, 1.0);
   EXPECT_EQ(s.p_value, 1.0);
@@ -225,8 +226,9 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   // the Poisson tail is exact for a zero count.
   int num_pure = 0;
   for (const auto& [pair, shift] : scene.shift) {
-    const DistinctiveSupport s =
-        tracks.Support(db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2));
+    const TwoViewGeometry g =
+        db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
+    const DistinctiveSupport s = tracks.Support(g.pair, g.inlier_matches);
     if (shift == 0) {
       EXPECT_FALSE(s.Deficient(0.5, 0.01)) << pair.image_id1 << "-"
                                            << pair.image_id2;
