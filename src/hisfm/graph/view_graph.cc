@@ -4,19 +4,6 @@
 
 namespace hisfm {
 
-ViewGraph ViewGraph::FromDatabase(const Database& database,
-                                  uint32_t min_num_matches) {
-  std::vector<ImageId> images;
-  for (const DatabaseImage& im : database.ReadImages()) {
-    images.push_back(im.image_id);
-  }
-  std::vector<ViewGraphEdge> edges;
-  for (const VerifiedPair& p : database.ReadVerifiedPairs(min_num_matches)) {
-    edges.push_back({p.pair, p.num_inliers});
-  }
-  return FromEdges(std::move(images), edges);
-}
-
 std::vector<ImagePair> ViewGraph::Pairs() const {
   std::vector<ImagePair> out;
   out.reserve(edges_.size());

@@ -11,6 +11,7 @@
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 
@@ -34,7 +35,7 @@ nlohmann::json FilterPairsExhaustively(const std::string& database_path,
   RequireValidDatabase(database_path);
   const Database database(database_path);
   const ViewGraph graph =
-      ViewGraph::FromDatabase(database, options.min_num_matches);
+      ReadViewGraph(database, options.min_num_matches);
   ThrowUnless(graph.NumEdges() > 0,
               StrCat("database has no verified image pairs: ", database_path));
   const std::vector<DatabaseImage> images = database.ReadImages();

@@ -10,6 +10,7 @@
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
+#include "hisfm/recon/hierarchy_json.h"
 #include "hisfm/recon/input_check.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
@@ -17,6 +18,7 @@
 #include "hisfm/util/logging.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace fs = std::filesystem;
 
@@ -108,7 +110,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   for (const DatabaseImage& im : images) in.names[im.image_id] = im.name;
   ThrowUnless(!in.names.empty(),
               StrCat("database has no images: ", database_path));
-  in.graph = ViewGraph::FromDatabase(*in.database, options.min_num_matches);
+  in.graph = ReadViewGraph(*in.database, options.min_num_matches);
   ThrowUnless(in.graph.NumEdges() > 0,
               StrCat("database has no verified image pairs with at least ",
                      options.min_num_matches, " inliers (run colmap's "

@@ -7,6 +7,7 @@
 #include "hisfm/util/error.h"
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -58,7 +59,7 @@ TEST(FilterAmbiguousPairs, KeepsOnlyTruePairsOfARepeatedStreet) {
     const street_test::Scene scene =
         street_test::Write(dir / "database.db", {20, true, seed});
     Database db(dir / "database.db");
-    const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+    const ViewGraph graph = ReadViewGraph(db, 15);
     const StreetOutcome before = Count(scene, graph);
     ASSERT_GT(before.false_kept, 2 * before.true_pairs);  // a hard scene
 
@@ -102,7 +103,7 @@ TEST(FilterAmbiguousPairs, KeepsEveryPairOfAUniqueStreet) {
   const street_test::Scene scene =
       street_test::Write(dir / "database.db", {20, false, 4});
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const PairFilterResult result =
       FilterAmbiguousPairs(db, graph, PairFilterOptions());
   EXPECT_TRUE(result.removed.empty());
@@ -117,7 +118,7 @@ TEST(FilterAmbiguousPairs, ThreadsDoNotChangeTheResult) {
   TempDir dir("hisfm-pairfilter");
   street_test::Write(dir / "database.db", {24, true, 5});
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   PairFilterOptions options;
   options.num_threads = 1;
   const PairFilterResult serial = FilterAmbiguousPairs(db, graph, options);
@@ -174,7 +175,7 @@ TEST(FilterAmbiguousPairs, RemovesStrongPairsThatCoverLittle) {
     writer.Close();
   }
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   ASSERT_EQ(graph.NumEdges(), 3u);
   PairFilterOptions options;
   options.min_distinctive_ratio = 0;

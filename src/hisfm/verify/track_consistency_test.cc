@@ -10,6 +10,7 @@
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -44,7 +45,7 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   TempDir dir("hisfm-tracks");
   WriteHandMadeDatabase(dir / "database.db");
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  const ViewGraph graph = ReadViewGraph(db, 1);
   ASSERT_EQ(graph.NumEdges(), 3u);
   const TrackConsistency tracks(db, graph);
   EXPECT_TRUE(tracks.IsMatched(1, 0));
@@ -119,7 +120,7 @@ TEST(TrackConsistency, RandomGraphsAgreeWithTheDefinition) {
     KeypointMultisets first_keypoints;
     std::map<ImagePair, size_t> multiset_of;
     const TrackConsistency tracks(
-        db, ViewGraph::FromDatabase(db, 1),
+        db, ReadViewGraph(db, 1),
         [&](const ImagePair& pair, FeatureMatchSpan inliers) {
           multiset_of[pair] = first_keypoints.Add(num_keypoints, inliers);
         });
@@ -198,7 +199,7 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   const street_test::Scene scene =
       street_test::Write(dir / "database.db", {16, true, 3});
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const TrackConsistency tracks(db, graph);
   size_t repeated = 0, repeated_distinctive = 0;
   size_t unique = 0, unique_distinctive = 0;
@@ -247,7 +248,7 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   street_test::Write(control_dir / "database.db", {16, false, 3});
   Database control_db(control_dir / "database.db");
   const TrackConsistency control(
-      control_db, ViewGraph::FromDatabase(control_db, 15));
+      control_db, ReadViewGraph(control_db, 15));
   EXPECT_LT(control.InconsistentFraction(), 0.02);
 }
 
