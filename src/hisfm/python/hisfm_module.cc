@@ -130,7 +130,7 @@ py::dict MapperFunction(const py::object& database_path, const py::object& image
     }
   }
   options.mapper_args = TakeMapperPassThrough(pass_through);
-  CheckMapperOptions(app, options);
+  CheckMapperOptions(options);
   paths.options_record = OptionsRecord(app, options.mapper_args);
   nlohmann::json summary;
   {

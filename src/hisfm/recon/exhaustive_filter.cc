@@ -16,9 +16,11 @@
 namespace hisfm {
 
 void ExhaustiveFilterOptions::Check() const {
-  HISFM_CHECK_OPTION(min_num_matches >= 1);
-  HISFM_CHECK_OPTION(verify_threshold >= 0.0 && verify_threshold <= 1.0);
-  HISFM_CHECK_OPTION(batch_size >= 1);
+  HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
+  HISFM_CHECK_OPTION(verify_threshold,
+                     verify_threshold >= 0.0 && verify_threshold <= 1.0,
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(batch_size, batch_size >= 1, ">= 1");
   communities.Check();
   verifier.Check();
 }

@@ -322,18 +322,26 @@ CameraMode ResolveCameraMode(CameraMode mode,
 }
 
 void FeaturePipelineOptions::Check() const {
-  HISFM_CHECK_OPTION(matcher == "exhaustive" || matcher == "sequential" ||
-                     matcher == "vocab_tree");
-  HISFM_CHECK_OPTION(num_neighbors >= 1);
-  HISFM_CHECK_OPTION(vocab_tree_num_words == 0 || vocab_tree_num_words >= 16);
-  HISFM_CHECK_OPTION(executor == "local" || executor == "slurm");
-  HISFM_CHECK_OPTION(shard_size >= 0);
-  HISFM_CHECK_OPTION(block_group_size >= 0);
+  HISFM_CHECK_OPTION(matcher,
+                     matcher == "exhaustive" || matcher == "sequential" ||
+                     matcher == "vocab_tree",
+                     "one of exhaustive, sequential, vocab_tree");
+  HISFM_CHECK_OPTION(num_neighbors, num_neighbors >= 1, ">= 1");
+  HISFM_CHECK_OPTION(vocab_tree_num_words,
+                     vocab_tree_num_words == 0 || vocab_tree_num_words >= 16,
+                     "0 or >= 16");
+  HISFM_CHECK_OPTION(executor, executor == "local" || executor == "slurm",
+                     "one of local, slurm");
+  HISFM_CHECK_OPTION(shard_size, shard_size >= 0, ">= 0");
+  HISFM_CHECK_OPTION(block_group_size, block_group_size >= 0, ">= 0");
   if (executor == "slurm") slurm.Check();
   ParseCameraMode(camera_mode);
-  HISFM_CHECK_OPTION(!camera_model.empty());
-  HISFM_CHECK_OPTION(num_threads == -1 || num_threads >= 1);
-  HISFM_CHECK_OPTION(exhaustive_block_size == 0 || exhaustive_block_size >= 2);
+  HISFM_CHECK_OPTION(camera_model, !camera_model.empty(), "non-empty");
+  HISFM_CHECK_OPTION(num_threads,
+                     num_threads == -1 || num_threads >= 1, "-1 or >= 1");
+  HISFM_CHECK_OPTION(exhaustive_block_size,
+                     exhaustive_block_size == 0 || exhaustive_block_size >= 2,
+                     "0 or >= 2");
   colmap.Check();
 }
 

@@ -25,13 +25,17 @@ namespace fs = std::filesystem;
 namespace hisfm {
 
 void HierarchicalMapperOptions::Check() const {
-  HISFM_CHECK_OPTION(min_num_matches >= 1);
-  HISFM_CHECK_OPTION(min_model_size >= 2);
-  HISFM_CHECK_OPTION(filter_top_pairs >= 0);
-  HISFM_CHECK_OPTION(scaffold_ba_global_ratio >= 1.0);
-  HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements >= 1);
-  HISFM_CHECK_OPTION(ba_global_function_tolerance >= 0);
-  HISFM_CHECK_OPTION(ba_local_max_refinements >= 1);
+  HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
+  HISFM_CHECK_OPTION(min_model_size, min_model_size >= 2, ">= 2");
+  HISFM_CHECK_OPTION(filter_top_pairs, filter_top_pairs >= 0, ">= 0");
+  HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
+                     scaffold_ba_global_ratio >= 1.0, ">= 1.0");
+  HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements,
+                     scaffold_ba_global_max_refinements >= 1, ">= 1");
+  HISFM_CHECK_OPTION(ba_global_function_tolerance,
+                     ba_global_function_tolerance >= 0, ">= 0");
+  HISFM_CHECK_OPTION(ba_local_max_refinements,
+                     ba_local_max_refinements >= 1, ">= 1");
   hierarchy.Check();
   verifier.Check();
   colmap.Check();

@@ -21,9 +21,9 @@ namespace fs = std::filesystem;
 namespace hisfm {
 
 void ReportOptions::Check() const {
-  HISFM_CHECK_OPTION(max_points >= 1);
-  HISFM_CHECK_OPTION(max_table_rows >= 1);
-  HISFM_CHECK_OPTION(drawing_width >= 200);
+  HISFM_CHECK_OPTION(max_points, max_points >= 1, ">= 1");
+  HISFM_CHECK_OPTION(max_table_rows, max_table_rows >= 1, ">= 1");
+  HISFM_CHECK_OPTION(drawing_width, drawing_width >= 200, ">= 200");
 }
 
 namespace {

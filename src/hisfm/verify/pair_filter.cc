@@ -12,17 +12,27 @@
 namespace hisfm {
 
 void PairFilterOptions::Check() const {
-  HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
-  HISFM_CHECK_OPTION(distinctive_significance > 0 &&
-                     distinctive_significance <= 1);
-  HISFM_CHECK_OPTION(min_three_view_consistency >= 0 &&
-                     min_three_view_consistency <= 1);
-  HISFM_CHECK_OPTION(num_third_views >= 1);
+  HISFM_CHECK_OPTION(min_distinctive_ratio,
+                     min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(distinctive_significance,
+                     distinctive_significance > 0 &&
+                     distinctive_significance <= 1,
+                     "in (0, 1]");
+  HISFM_CHECK_OPTION(min_three_view_consistency,
+                     min_three_view_consistency >= 0 &&
+                     min_three_view_consistency <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(num_third_views, num_third_views >= 1, ">= 1");
   three_view.Check();
-  HISFM_CHECK_OPTION(min_relative_coverage >= 0 && min_relative_coverage <= 1);
-  HISFM_CHECK_OPTION(num_coverage_pairs >= 2);
-  HISFM_CHECK_OPTION(coverage_grid_cells >= 2 && coverage_grid_cells <= 100);
-  HISFM_CHECK_OPTION(num_threads >= 0);
+  HISFM_CHECK_OPTION(min_relative_coverage,
+                     min_relative_coverage >= 0 && min_relative_coverage <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(num_coverage_pairs, num_coverage_pairs >= 2, ">= 2");
+  HISFM_CHECK_OPTION(coverage_grid_cells,
+                     coverage_grid_cells >= 2 && coverage_grid_cells <= 100,
+                     "in [2, 100]");
+  HISFM_CHECK_OPTION(num_threads, num_threads >= 0, ">= 0");
 }
 
 PairTestResult TestDistinctiveSupport(
