@@ -233,24 +233,57 @@ void WriteImageList(const std::vector<ImageId>& ids,
   ThrowUnless(out.good(), StrCat("cannot write ", path));
 }
 
-// Largest model folder under `path` (numbered sub-folders), or "".
-std::string LargestModel(const std::string& path) {
-  std::string best;
-  size_t best_size = 0;
+// A model folder and its number of registered images (read once).
+struct ModelFolder {
+  // "" if there is no model.
+  std::string path;
+  size_t num_registered = 0;
+
+  bool empty() const { return path.empty(); }
+};
+
+// The model in `path`, read once for its size.
+ModelFolder ReadModelFolder(const std::string& path) {
+  return {path, ReadModelBinary(path).NumRegImages()};
+}
+
+// Largest model folder under `path` (numbered sub-folders; empty if none).
+// The others are dropped: each is logged with its size.
+ModelFolder LargestModel(const std::string& path) {
+  std::vector<ModelFolder> models;
   std::error_code ec;
-  if (!fs::is_directory(path, ec)) return best;
+  if (!fs::is_directory(path, ec)) return {};
   for (const auto& entry : fs::directory_iterator(path)) {
     if (!entry.is_directory() ||
         !fs::exists(entry.path() / "images.bin")) {
       continue;
     }
-    const size_t size = ReadModelBinary(entry.path().string()).NumRegImages();
-    if (size > best_size) {
-      best_size = size;
-      best = entry.path().string();
+    models.push_back(ReadModelFolder(entry.path().string()));
+  }
+  std::sort(models.begin(), models.end(),
+            [](const ModelFolder& a, const ModelFolder& b) {
+              return a.path < b.path;
+            });
+  ModelFolder best;
+  for (const ModelFolder& m : models) {
+    if (m.num_registered > best.num_registered) best = m;
+  }
+  for (const ModelFolder& m : models) {
+    if (m.path != best.path) {
+      HISFM_LOG_WARN("dropping sub-model {} ({} registered images); keeping {} "
+                     "({} images)",
+                     m.path, m.num_registered, best.path, best.num_registered);
     }
   }
   return best;
+}
+
+// The options of a component's filtered databases: the multi-view
+// verifier's cleaned inliers replace the database's, if there are any.
+FilteredDatabaseOptions ComponentDatabaseOptions(const LoadedInput& in) {
+  FilteredDatabaseOptions filtered;
+  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  return filtered;
 }
 
 nlohmann::json ModelStats(const Reconstruction& model) {
@@ -315,8 +348,7 @@ void PrepareComponent(const ComponentRun& run, const HierarchyComponent& comp,
   std::error_code ec;
   fs::create_directories(run.dir + "/scaffold", ec);
   fs::create_directories(run.dir + "/attached", ec);
-  FilteredDatabaseOptions filtered;
-  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  const FilteredDatabaseOptions filtered = ComponentDatabaseOptions(in);
   WriteFilteredDatabase(run.database_path, run.dir + "/skeleton.db",
                         comp.skeleton_edges, filtered);
   WriteFilteredDatabase(run.database_path, run.dir + "/hierarchy.db",
@@ -328,9 +360,8 @@ void PrepareComponent(const ComponentRun& run, const HierarchyComponent& comp,
 }
 
 struct ScaffoldOutcome {
-  // The largest scaffold model, or "" when colmap could not start one.
-  std::string model_path;
-  size_t num_registered = 0;
+  // The largest scaffold model, empty when colmap could not start one.
+  ModelFolder model;
   // True when there is no scaffold and the leaves' stage starts from scratch.
   bool fallback = false;
 };
@@ -370,14 +401,14 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
     RunColmapWithProgress(options.colmap, args, run.Log(),
                           "Scaffold: registering images",
                           comp.skeleton_images.size(), ParseMapperProgress);
-    outcome.model_path = LargestModel(run.dir + "/scaffold");
+    outcome.model = LargestModel(run.dir + "/scaffold");
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
     HISFM_LOG_WARN("scaffold: {}", e.what());
   }
   times->scaffold += timer.ElapsedSeconds();
-  if (outcome.model_path.empty()) {
+  if (outcome.model.empty()) {
     outcome.fallback = true;
     HISFM_LOG_WARN(
         "scaffold: colmap could not start a model on the {} skeletal images; "
@@ -385,26 +416,24 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
         comp.skeleton_images.size());
     return outcome;
   }
-  outcome.num_registered = ReadModelBinary(outcome.model_path).NumRegImages();
   HISFM_LOG_INFO("scaffold: {}/{} skeletal images registered ({:.1f} s)",
-                 outcome.num_registered, comp.skeleton_images.size(),
+                 outcome.model.num_registered, comp.skeleton_images.size(),
                  timer.ElapsedSeconds());
   return outcome;
 }
 
 // Registers the remaining images on the hierarchy's edges only (paper, Sec.
-// III-D), starting from the scaffold, or from scratch without one. Returns
-// the model folder.
+// III-D), starting from the scaffold, or from scratch without one (an empty
+// `scaffold`). Returns the model folder.
 // `stage` names the database (STAGE.db) and the output folder (STAGE/) in
 // the component's folder, and is "attached" for the hierarchy's edges.
-std::string AttachLeaves(const ComponentRun& run,
+ModelFolder AttachLeaves(const ComponentRun& run,
                          const HierarchyComponent& comp,
                          const HierarchicalMapperOptions& options,
-                         const std::string& scaffold, StageTimes* times,
+                         const ModelFolder& scaffold, StageTimes* times,
                          const std::string& stage = "attached",
                          size_t num_edges = 0) {
-  const size_t scaffold_size =
-      scaffold.empty() ? 0 : ReadModelBinary(scaffold).NumRegImages();
+  const size_t scaffold_size = scaffold.num_registered;
   const std::string database =
       run.dir + (stage == "attached" ? "/hierarchy.db" : "/" + stage + ".db");
   LogHeading(StrCat("Attach: registering ", comp.images.size() - scaffold_size,
@@ -413,7 +442,7 @@ std::string AttachLeaves(const ComponentRun& run,
   std::vector<std::string> args = {"mapper", "--database_path", database,
                                    "--image_path", run.image_path};
   if (!scaffold.empty()) {
-    args.insert(args.end(), {"--input_path", scaffold});
+    args.insert(args.end(), {"--input_path", scaffold.path});
   }
   const std::string out_dir = run.dir + "/" + stage;
   std::error_code ec;
@@ -452,31 +481,32 @@ std::string AttachLeaves(const ComponentRun& run,
   }
   const double seconds = timer.ElapsedSeconds();
   times->attach += seconds;
-  std::string attached = out_dir;
-  if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
+  const ModelFolder attached = fs::exists(out_dir + "/images.bin")
+                                  ? ReadModelFolder(out_dir)
+                                  : LargestModel(out_dir);
   if (attached.empty() && !failure.empty()) throw Error(failure);
   ThrowUnless(!attached.empty(),
               StrCat("colmap wrote no model after attaching leaves; see ",
                      run.Log()));
   if (!failure.empty()) HISFM_LOG_WARN("attach: {}", failure);
   HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
-                 ReadModelBinary(attached).NumRegImages(), comp.images.size(),
-                 seconds);
+                 attached.num_registered, comp.images.size(), seconds);
   return attached;
 }
 
 // Registers the images of the component that the hierarchy's edges left
 // unregistered through their reserve edges (verified, but below the support
 // threshold), starting from the attached model; returns the model with more
-// registered images.
-std::string RescueUnregistered(const ComponentRun& run,
+// registered images. A failing rescue is logged and the attached model kept,
+// as a failing scaffold falls back to the attach stage.
+ModelFolder RescueUnregistered(const ComponentRun& run,
                                const HierarchyComponent& comp,
                                const LoadedInput& in,
                                const HierarchicalMapperOptions& options,
-                               const std::string& attached,
+                               const ModelFolder& attached,
                                StageTimes* times) {
   if (in.reserve_edges.empty()) return attached;
-  const Reconstruction model = ReadModelBinary(attached);
+  const Reconstruction model = ReadModelBinary(attached.path);
   std::set<ImageId> registered;
   for (const auto& [id, image] : model.images) registered.insert(id);
   const std::set<ImageId> members(comp.images.begin(), comp.images.end());
@@ -498,29 +528,35 @@ std::string RescueUnregistered(const ComponentRun& run,
   HISFM_LOG_INFO("rescue: {} unregistered image(s), {} reserve edge(s)",
                  missing.size(), num_reserve);
   Timer timer;
-  FilteredDatabaseOptions filtered;
-  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
   WriteFilteredDatabase(run.database_path, run.dir + "/rescued.db",
-                        {edges.begin(), edges.end()}, filtered);
+                        {edges.begin(), edges.end()},
+                        ComponentDatabaseOptions(in));
   times->filter_databases += timer.ElapsedSeconds();
-  const std::string rescued = AttachLeaves(run, comp, options, attached, times,
-                                           "rescued", edges.size());
-  return ReadModelBinary(rescued).NumRegImages() > model.NumRegImages()
-             ? rescued
-             : attached;
+  ModelFolder rescued;
+  try {
+    rescued = AttachLeaves(run, comp, options, attached, times, "rescued",
+                           edges.size());
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("rescue: {}; keeping the attached model", e.what());
+    return attached;
+  }
+  return rescued.num_registered > attached.num_registered ? rescued
+                                                          : attached;
 }
 
 // The optional extra global bundle adjustment; returns the final model.
-std::string RefineModel(const ComponentRun& run, const std::string& attached,
+std::string RefineModel(const ComponentRun& run, const ModelFolder& attached,
                         const HierarchicalMapperOptions& options,
                         StageTimes* times) {
-  if (!options.global_bundle_adjustment) return attached;
+  if (!options.global_bundle_adjustment) return attached.path;
   LogHeading("Global bundle adjustment");
   std::error_code ec;
   fs::create_directories(run.dir + "/refined", ec);
   const double seconds = RunColmap(
       options.colmap,
-      {"bundle_adjuster", "--input_path", attached, "--output_path",
+      {"bundle_adjuster", "--input_path", attached.path, "--output_path",
        run.dir + "/refined"},
       run.Log());
   times->bundle_adjustment += seconds;
@@ -609,10 +645,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       PrepareComponent(run, comp, in, &times);
       const ScaffoldOutcome scaffold = ReconstructScaffold(run, comp, options,
                                                            &times);
-      const std::string attached = RescueUnregistered(
+      const ModelFolder attached = RescueUnregistered(
           run, comp, in, options,
-          AttachLeaves(run, comp, options, scaffold.model_path, &times),
-          &times);
+          AttachLeaves(run, comp, options, scaffold.model, &times), &times);
       const std::string final_model = RefineModel(run, attached, options,
                                                   &times);
       const Reconstruction model = ReadModelBinary(final_model);
@@ -623,7 +658,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       nlohmann::json stats = ModelStats(model);
       stats["component_images"] = comp.images.size();
       stats["scaffold_images"] = comp.skeleton_images.size();
-      stats["scaffold_registered"] = scaffold.num_registered;
+      stats["scaffold_registered"] = scaffold.model.num_registered;
       stats["scaffold_fallback"] = scaffold.fallback;
       stats["path"] = std::to_string(model_index - 1);
       models.push_back(stats);
