@@ -243,8 +243,8 @@ TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
   TempDir tmp;
   SynthOptions synth;
   synth.scene = "object_control";
-  synth.num_images = 12;
-  synth.seed = 2;
+  synth.num_images = 16;
+  synth.seed = 3;
   WriteSyntheticDataset(synth, tmp / "scene");
   MapperPaths paths;
   paths.database_path = tmp / "scene/database.db";
@@ -273,7 +273,7 @@ TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
   const Reconstruction refined = ReadModel(component + "/refined");
   const Reconstruction out = ReadModel(tmp / "out/0");
   EXPECT_EQ(out.NumRegImages(), refined.NumRegImages());
-  EXPECT_EQ(out.NumRegImages(), 12u);
+  EXPECT_EQ(out.NumRegImages(), 16u);
   const PoseEvaluation e =
       EvaluateModel(out, ReadModel(tmp / "scene/ground_truth"), {});
   EXPECT_TRUE(e.correct) << e.verdict_reason;
