@@ -190,27 +190,30 @@ void AddMapperPathFlags(CLI::App& app, MapperPaths* paths) {
                  "Intermediate files (default OUTPUT_work)");
 }
 
-void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options) {
-  app.add_option("--verdict_threshold_deg", options->verdict_threshold_deg,
-                 "Pair error threshold of the verdict (degrees)")
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
+                            OptionFlagMap* flags) {
+  AddOptionFlag(app, flags, "--verdict_threshold_deg",
+                options->verdict_threshold_deg,
+                "Pair error threshold of the verdict (degrees)")
       ->capture_default_str();
-  app.add_option("--min_correct_pair_fraction",
-                 options->min_correct_pair_fraction,
-                 "Fraction of pairs within the threshold needed for "
-                 "'correct'")
+  AddOptionFlag(app, flags, "--min_correct_pair_fraction",
+                options->min_correct_pair_fraction,
+                "Fraction of pairs within the threshold needed for "
+                "'correct'")
       ->capture_default_str();
-  app.add_option("--require_all_registered", options->require_all_registered,
-                 "'correct' needs every reference image registered")
+  AddOptionFlag(app, flags, "--require_all_registered",
+                options->require_all_registered,
+                "'correct' needs every reference image registered")
       ->capture_default_str();
-  app.add_option("--min_model_size", options->min_model_size,
-                 "Models with at least this many reference images count as "
-                 "parts of an oversplit result")
+  AddOptionFlag(app, flags, "--min_model_size", options->min_model_size,
+                "Models with at least this many reference images count as "
+                "parts of an oversplit result")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  app.add_option("--alignment_inlier_threshold",
-                 options->alignment.inlier_threshold,
-                 "Centre alignment inlier distance, fraction of the scene "
-                 "extent")
+  AddOptionFlag(app, flags, "--alignment_inlier_threshold",
+                options->alignment.inlier_threshold,
+                "Centre alignment inlier distance, fraction of the scene "
+                "extent")
       ->capture_default_str();
 }
 

@@ -21,11 +21,6 @@ void AddHierarchicalMapperFlags(CLI::App& app,
 /// --output_path (required) and --work_path.
 void AddMapperPathFlags(CLI::App& app, MapperPaths* paths);
 
-/// Adds the options of the pose evaluation (`hisfm evaluate`):
-/// --verdict_threshold_deg, --min_correct_pair_fraction,
-/// --require_all_registered, --min_model_size, --alignment_inlier_threshold.
-void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options);
-
 /// Adds --log_level and applies it after parsing.
 void AddLogLevelFlag(CLI::App& app, std::string* level);
 
@@ -64,6 +59,13 @@ CLI::Option* AddOptionFlag(CLI::App& app, OptionFlagMap* flags,
   (*flags)[&option] = flag;
   return app.add_option(flag, option, help);
 }
+
+/// Adds the options of the pose evaluation (`hisfm evaluate`):
+/// --verdict_threshold_deg, --min_correct_pair_fraction,
+/// --require_all_registered, --min_model_size, --alignment_inlier_threshold;
+/// `flags` records the option each flag sets (CheckOptionFlags).
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
+                            OptionFlagMap* flags);
 
 /// Runs `check` (an options' Check()); an OptionError about an option of
 /// `flags` is rethrown naming its flag ("invalid option --num_images = 1:

@@ -135,6 +135,20 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
             "error: invalid option --vocab_tree_num_words = 8: must be 0 or "
             ">= 16\n");
   EXPECT_FALSE(fs::exists(tmp / "w"));
+  const Result bad_threshold = RunHisfm(
+      "evaluate --model m --reference r --alignment_inlier_threshold 0", tmp);
+  EXPECT_NE(bad_threshold.code, 0);
+  EXPECT_EQ(bad_threshold.output,
+            "error: invalid option --alignment_inlier_threshold = 0: must be "
+            "> 0.0\n");
+  const Result bad_batch = RunHisfm(
+      "filter_pairs --database_path x.db --output_path y.db "
+      "--HiSfM.verifier_batch_size 0",
+      tmp);
+  EXPECT_NE(bad_batch.code, 0);
+  EXPECT_EQ(bad_batch.output,
+            "error: invalid option --HiSfM.verifier_batch_size = 0: must be "
+            ">= 1\n");
 }
 
 // Mistyped output and work paths must never delete or replace an input or a

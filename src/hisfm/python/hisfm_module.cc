@@ -148,9 +148,10 @@ py::dict EvaluateFunction(const py::object& model_path, const py::object& refere
                   const py::kwargs& kwargs) {
   CLI::App app("hisfm.evaluate");
   PoseEvaluationOptions options;
-  AddPoseEvaluationFlags(app, &options);
+  OptionFlagMap flags;
+  AddPoseEvaluationFlags(app, &options, &flags);
   ParseKeywords(app, KeywordArguments(kwargs));
-  options.Check();
+  CheckOptionFlags(flags, [&] { options.Check(); });
   const std::string model = PathText("model_path", model_path);
   const std::string reference_folder =
       PathText("reference_path", reference_path);
