@@ -564,122 +564,87 @@ std::string RefineModel(const ComponentRun& run, const ModelFolder& attached,
   return run.dir + "/refined";
 }
 
-}  // namespace
-
-nlohmann::json ComputeViewGraphJson(const std::string& database_path,
-                                    const std::string& image_path,
-                                    const HierarchicalMapperOptions& options) {
-  options.Check();
-  RequireValidDatabase(database_path);
-  LoadedInput in = LoadAndBuildHierarchy(database_path, image_path, options);
-  nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
-  out["summary"] = HierarchySummary(in);
-  out["timings"] = {{"read_database", in.read_seconds},
-                    {"filter_pairs", in.filter_seconds},
-                    {"build_hierarchy", in.graph_seconds}};
-  return out;
+// Writes the hierarchy as JSON (HierarchyToJson) to `path`.
+void WriteViewGraphJson(const LoadedInput& in, const std::string& path) {
+  std::ofstream out(path);
+  out << HierarchyToJson(in.hierarchy, in.graph, in.names).dump(1);
 }
 
-nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
-                                     const HierarchicalMapperOptions& options) {
-  options.Check();
-  Timer total;
+// Checks the mapper's paths before any work: a readable database, an image
+// folder, a missing or empty output folder (normalized into
+// `output_path`) and a work folder apart from the output and the inputs.
+// Returns the work folder.
+std::string CheckMapperPaths(const MapperPaths& paths,
+                             std::string* output_path) {
   CheckFileReadable(paths.database_path, "database");
   CheckDirectoryExists(paths.image_path, "image folder");
   ThrowUnless(!paths.output_path.empty(), "--output_path is required");
   // "out/", "./out" and "out" name one folder: normalized before the work
   // folder's name is derived from it.
-  const std::string output_path = NormalizePath(paths.output_path);
+  *output_path = NormalizePath(paths.output_path);
   std::error_code ec;
   ThrowUnless(
-      !fs::exists(output_path, ec) || fs::is_directory(output_path, ec),
-      StrCat("output path is a file, not a folder: ", output_path));
-  ThrowUnless(IsMissingOrEmptyDirectory(output_path),
-              StrCat("output folder is not empty: ", output_path));
+      !fs::exists(*output_path, ec) || fs::is_directory(*output_path, ec),
+      StrCat("output path is a file, not a folder: ", *output_path));
+  ThrowUnless(IsMissingOrEmptyDirectory(*output_path),
+              StrCat("output folder is not empty: ", *output_path));
   const std::string work = NormalizePath(
-      paths.work_path.empty() ? output_path + "_work" : paths.work_path);
-  ThrowUnless(!IsSameOrInside(work, output_path) &&
-                  !IsSameOrInside(output_path, work),
-              StrCat("--work_path ", work, " and --output_path ", output_path,
-                     " must not contain each other"));
+      paths.work_path.empty() ? *output_path + "_work" : paths.work_path);
+  ThrowUnless(!IsSameOrInside(work, *output_path) &&
+                  !IsSameOrInside(*output_path, work),
+              StrCat("--work_path ", work, " and --output_path ",
+                     *output_path, " must not contain each other"));
   for (const std::string& input : {paths.database_path, paths.image_path}) {
     ThrowUnless(!IsSameOrInside(input, work),
                 StrCat("--work_path ", work, " holds the input ", input));
   }
-  // Bad input stops here, in one line, before any colmap call.
-  RequireValidDatabase(paths.database_path);
-  // Also refuses a colmap release whose option names hisfm does not know.
-  CheckColmapAvailable(options.colmap);
-  // Work folders of earlier versions hold view_graph.json, written first.
-  PrepareWorkDirectory(work, "view_graph.json");
+  return work;
+}
 
-  AtomicDirectory output(output_path);
-  LoadedInput in =
-      LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
-  const Hierarchy& h = in.hierarchy;
+// One component's final model and its scaffold.
+struct ComponentModel {
+  Reconstruction model;
+  ScaffoldOutcome scaffold;
+};
 
-  {
-    std::ofstream out(work + "/view_graph.json");
-    out << HierarchyToJson(h, in.graph, in.names).dump(1);
-  }
+// Reconstructs one component: filtered databases, scaffold, attached leaves,
+// rescued images, optional global bundle adjustment.
+ComponentModel ReconstructComponent(const ComponentRun& run,
+                                    const HierarchyComponent& comp,
+                                    const LoadedInput& in,
+                                    const HierarchicalMapperOptions& options,
+                                    StageTimes* times) {
+  PrepareComponent(run, comp, in, times);
+  ComponentModel out;
+  out.scaffold = ReconstructScaffold(run, comp, options, times);
+  const ModelFolder attached = RescueUnregistered(
+      run, comp, in, options,
+      AttachLeaves(run, comp, options, out.scaffold.model, times), times);
+  out.model = ReadModelBinary(RefineModel(run, attached, options, times));
+  return out;
+}
 
-  nlohmann::json models = nlohmann::json::array();
-  nlohmann::json failed = nlohmann::json::array();
-  StageTimes times;
-  size_t model_index = 0;
-  size_t num_registered = 0;
-  for (size_t c = 0; c < h.components.size(); ++c) {
-    const HierarchyComponent& comp = h.components[c];
-    if (comp.images.size() < static_cast<size_t>(options.min_model_size)) {
-      HISFM_LOG_WARN("component {} has {} images: skipped", c,
-                     comp.images.size());
-      continue;
-    }
-    ThrowIfInterrupted();
-    LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
-                      comp.skeleton_images.size(), " in the scaffold"));
-    const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
-                           paths.image_path};
-    try {
-      Timer timer;
-      PrepareComponent(run, comp, in, &times);
-      const ScaffoldOutcome scaffold = ReconstructScaffold(run, comp, options,
-                                                           &times);
-      const ModelFolder attached = RescueUnregistered(
-          run, comp, in, options,
-          AttachLeaves(run, comp, options, scaffold.model, &times), &times);
-      const std::string final_model = RefineModel(run, attached, options,
-                                                  &times);
-      const Reconstruction model = ReadModelBinary(final_model);
-      const std::string model_dir = StrCat(output.path(), "/", model_index++);
-      fs::create_directories(model_dir, ec);
-      WriteModelBinary(model, model_dir);
-      num_registered += model.NumRegImages();
-      nlohmann::json stats = ModelStats(model);
-      stats["component_images"] = comp.images.size();
-      stats["scaffold_images"] = comp.skeleton_images.size();
-      stats["scaffold_registered"] = scaffold.model.num_registered;
-      stats["scaffold_fallback"] = scaffold.fallback;
-      stats["path"] = std::to_string(model_index - 1);
-      models.push_back(stats);
-    } catch (const Interrupted&) {
-      throw;
-    } catch (const Error& e) {
-      // One failing component does not discard the others.
-      HISFM_LOG_WARN("component {} failed: {}", c, e.what());
-      failed.push_back({{"component", c},
-                        {"images", comp.images.size()},
-                        {"error", e.what()}});
-    }
-  }
-  ThrowUnless(model_index > 0,
-              StrCat("no model could be reconstructed; see the logs in ",
-                     work, failed.empty() ? std::string()
-                                          : StrCat(" (first failure: ",
-                                                   failed[0]["error"]
-                                                       .get<std::string>(),
-                                                   ")")));
+// A component's entry in the summary's "models" (its model is `index`).
+nlohmann::json ComponentStats(const ComponentModel& result,
+                              const HierarchyComponent& comp, size_t index) {
+  nlohmann::json stats = ModelStats(result.model);
+  stats["component_images"] = comp.images.size();
+  stats["scaffold_images"] = comp.skeleton_images.size();
+  stats["scaffold_registered"] = result.scaffold.model.num_registered;
+  stats["scaffold_fallback"] = result.scaffold.fallback;
+  stats["path"] = std::to_string(index);
+  return stats;
+}
 
+// The run's summary (hisfm_summary.json): the hierarchy's counts, the
+// inputs, each model's statistics and the failed components, timings.
+nlohmann::json MapperSummary(const LoadedInput& in, const MapperPaths& paths,
+                             const std::string& work,
+                             const HierarchicalMapperOptions& options,
+                             size_t num_registered,
+                             const nlohmann::json& models,
+                             const nlohmann::json& failed,
+                             const StageTimes& times, double total_seconds) {
   nlohmann::json summary = HierarchySummary(in);
   summary["database_path"] = fs::absolute(paths.database_path).string();
   summary["image_path"] = fs::absolute(paths.image_path).string();
@@ -701,7 +666,93 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                         {"scaffold", times.scaffold},
                         {"attach", times.attach},
                         {"global_bundle_adjustment", times.bundle_adjustment},
-                        {"total", total.ElapsedSeconds()}};
+                        {"total", total_seconds}};
+  return summary;
+}
+
+}  // namespace
+
+nlohmann::json ComputeViewGraphJson(const std::string& database_path,
+                                    const std::string& image_path,
+                                    const HierarchicalMapperOptions& options) {
+  options.Check();
+  RequireValidDatabase(database_path);
+  LoadedInput in = LoadAndBuildHierarchy(database_path, image_path, options);
+  nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
+  out["summary"] = HierarchySummary(in);
+  out["timings"] = {{"read_database", in.read_seconds},
+                    {"filter_pairs", in.filter_seconds},
+                    {"build_hierarchy", in.graph_seconds}};
+  return out;
+}
+
+nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
+                                     const HierarchicalMapperOptions& options) {
+  options.Check();
+  Timer total;
+  std::string output_path;
+  const std::string work = CheckMapperPaths(paths, &output_path);
+  std::error_code ec;
+  // Bad input stops here, in one line, before any colmap call.
+  RequireValidDatabase(paths.database_path);
+  // Also refuses a colmap release whose option names hisfm does not know.
+  CheckColmapAvailable(options.colmap);
+  // Work folders of earlier versions hold view_graph.json, written first.
+  PrepareWorkDirectory(work, "view_graph.json");
+
+  AtomicDirectory output(output_path);
+  LoadedInput in =
+      LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
+  const Hierarchy& h = in.hierarchy;
+
+  WriteViewGraphJson(in, work + "/view_graph.json");
+
+  nlohmann::json models = nlohmann::json::array();
+  nlohmann::json failed = nlohmann::json::array();
+  StageTimes times;
+  size_t model_index = 0;
+  size_t num_registered = 0;
+  for (size_t c = 0; c < h.components.size(); ++c) {
+    const HierarchyComponent& comp = h.components[c];
+    if (comp.images.size() < static_cast<size_t>(options.min_model_size)) {
+      HISFM_LOG_WARN("component {} has {} images: skipped", c,
+                     comp.images.size());
+      continue;
+    }
+    ThrowIfInterrupted();
+    LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
+                      comp.skeleton_images.size(), " in the scaffold"));
+    const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
+                           paths.image_path};
+    try {
+      const ComponentModel result =
+          ReconstructComponent(run, comp, in, options, &times);
+      const std::string model_dir = StrCat(output.path(), "/", model_index++);
+      fs::create_directories(model_dir, ec);
+      WriteModelBinary(result.model, model_dir);
+      num_registered += result.model.NumRegImages();
+      models.push_back(ComponentStats(result, comp, model_index - 1));
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      // One failing component does not discard the others.
+      HISFM_LOG_WARN("component {} failed: {}", c, e.what());
+      failed.push_back({{"component", c},
+                        {"images", comp.images.size()},
+                        {"error", e.what()}});
+    }
+  }
+  ThrowUnless(model_index > 0,
+              StrCat("no model could be reconstructed; see the logs in ",
+                     work, failed.empty() ? std::string()
+                                          : StrCat(" (first failure: ",
+                                                   failed[0]["error"]
+                                                       .get<std::string>(),
+                                                   ")")));
+
+  const nlohmann::json summary =
+      MapperSummary(in, paths, work, options, num_registered, models, failed,
+                    times, total.ElapsedSeconds());
   if (!paths.options_record.empty()) {
     WriteFileAtomically(output.path() + "/hisfm_options.ini",
                         paths.options_record);
