@@ -66,7 +66,8 @@ TEST(OptionError, WithNameKeepsTheRest) {
   int top_k = 0;
   const OptionError e(&top_k, "top_k", "0", ">= 1");
   const OptionError flagged = e.WithName("--HiSfM.top_k");
-  EXPECT_STREQ(flagged.what(), "invalid option --HiSfM.top_k = 0: must be >= 1");
+  EXPECT_STREQ(flagged.what(),
+               "invalid option --HiSfM.top_k = 0: must be >= 1");
   EXPECT_EQ(flagged.field(), &top_k);
   EXPECT_EQ(flagged.value(), "0");
   EXPECT_EQ(flagged.requirement(), ">= 1");

@@ -122,7 +122,8 @@ struct PairTestResult {
 };
 
 /// Distinctive inliers of each pair (DistinctiveSupport::num_distinctive).
-using DistinctiveCounts = std::unordered_map<ImagePair, uint32_t, ImagePairHash>;
+using DistinctiveCounts =
+    std::unordered_map<ImagePair, uint32_t, ImagePairHash>;
 
 /// Test A: removes the pairs whose distinctive support (`support[i]` for
 /// `edges[i]`) is deficient (options.min_distinctive_ratio,
