@@ -733,6 +733,112 @@ std::string BridgeTable(const ReportInput& in, const ReportOptions& options) {
 
 // Top view of `model` with the input's reference overlaid and cameras
 // coloured by the input's communities, under the heading `title`.
+// The points inside `clip`, grouped by colour (3 bits per channel), one
+// path per colour; returns how many were drawn.
+size_t DrawTopViewPoints(
+    const std::vector<std::pair<Eigen::Vector2d, const Point3D*>>& points,
+    const Bounds& clip, const Viewport& vp, std::ostringstream& svg) {
+  std::map<int, std::string> paths;
+  size_t drawn = 0;
+  for (const auto& [q, p] : points) {
+    if (!clip.Contains(q)) continue;
+    const Eigen::Vector2d s = vp.Map(q);
+    const int key = ((p->color(0) >> 5) << 6) | ((p->color(1) >> 5) << 3) |
+                    (p->color(2) >> 5);
+    paths[key] += "M" + C(s.x()) + " " + C(s.y()) + "h0";
+    ++drawn;
+  }
+  svg << "<g class=\"points\">\n";
+  for (const auto& [key, d] : paths) {
+    const int r = ((key >> 6) & 7) * 255 / 7, g = ((key >> 3) & 7) * 255 / 7,
+              bl = (key & 7) * 255 / 7;
+    svg << "<path stroke=\"" << Hex(r, g, bl) << "\" d=\"" << d << "\"/>\n";
+  }
+  svg << "</g>\n";
+  return drawn;
+}
+
+// The reference cameras (`refs`, in the model's top view) as squares, each
+// joined by a thin line to the model's camera of the same name.
+void DrawReferenceCameras(
+    const Reconstruction& model, const TopViewFrame& frame,
+    const std::vector<std::pair<std::string, Eigen::Vector2d>>& refs,
+    const Viewport& vp, double cam_r, std::ostringstream& svg) {
+  if (refs.empty()) return;
+  svg << "<g class=\"ref-links\">\n";
+  for (const auto& [name, q] : refs) {
+    const Image* m = model.FindImageWithName(name);
+    if (m == nullptr) continue;
+    svg << Line(vp.Map(frame.Project(m->ProjectionCenter())), vp.Map(q), "")
+        << '\n';
+  }
+  svg << "</g>\n<g class=\"ref\">\n";
+  for (const auto& [name, q] : refs) {
+    const Eigen::Vector2d s = vp.Map(q);
+    svg << "<rect x=\"" << C(s.x() - cam_r) << "\" y=\"" << C(s.y() - cam_r)
+        << "\" width=\"" << C(2 * cam_r) << "\" height=\"" << C(2 * cam_r)
+        << "\"><title>reference " << Esc(name) << "</title></rect>\n";
+  }
+  svg << "</g>\n";
+}
+
+// The model's cameras: a dot of radius `cam_r` with a stroke along the
+// viewing direction (`span`: the drawing's extent), coloured by community.
+void DrawTopViewCameras(
+    const std::vector<std::pair<const Image*, Eigen::Vector2d>>& cams,
+    const TopViewFrame& frame, const Viewport& vp, double span, double cam_r,
+    const std::map<std::string, int>& community, std::ostringstream& svg) {
+  svg << "<g class=\"cams\">\n";
+  for (const auto& [image, q] : cams) {
+    const Eigen::Vector2d s = vp.Map(q);
+    Eigen::Vector2d dir = frame.ProjectDirection(
+        image->cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ());
+    const Eigen::Vector2d tip = vp.Map(q + 0.035 * span * dir);
+    auto it = community.find(image->name);
+    const std::string color =
+        it == community.end() ? "#1f77b4" : CommunityColor(it->second);
+    svg << "<g stroke=\"" << color << "\" fill=\"" << color << "\">"
+        << Line(s, tip, "") << "<circle cx=\"" << C(s.x()) << "\" cy=\""
+        << C(s.y()) << "\" r=\"" << C(cam_r) << "\"><title>"
+        << Esc(StrCat(image->name, " (image ", image->image_id, ")",
+                      it == community.end()
+                          ? ""
+                          : StrCat(", community ", it->second)))
+        << "</title></circle></g>\n";
+  }
+}
+
+// The top view's caption: what is drawn (cameras, `drawn` points, coloured
+// by community or not, seen from above or not) and how the reference was
+// aligned.
+std::string TopViewCaption(const ReportInput& in, const Reconstruction& model,
+                           bool by_community, size_t drawn, bool along_up,
+                           bool aligned, size_t num_common) {
+  std::ostringstream out;
+  out << model.NumRegImages() << " cameras (dots with their viewing "
+      << "direction" << (by_community ? ", coloured by community" : "")
+      << ") and " << drawn << " of " << model.NumPoints3D()
+      << " points, "
+      << (along_up
+              ? "seen from above (looking down the cameras' mean up "
+                "direction)."
+              : "projected onto the plane of the two main directions of the "
+                "camera centres (the cameras disagree on which way is up).");
+  if (in.reference) {
+    if (aligned) {
+      out << " Grey squares: the reference cameras after a robust "
+             "similarity alignment on "
+          << num_common
+          << " common images; a thin line joins each camera to its "
+             "reference.";
+    } else {
+      out << " The reference could not be aligned (" << num_common
+          << " common images).";
+    }
+  }
+  return out.str();
+}
+
 std::string ModelSection(const ReportInput& in, const Reconstruction& model,
                          const std::string& title,
                          const ReportOptions& options) {
@@ -787,90 +893,22 @@ std::string ModelSection(const ReportInput& in, const Reconstruction& model,
                                   20);
   const double span = std::max(clip.max_x - clip.min_x, clip.max_y - clip.min_y);
 
-  // Points grouped by colour (3 bits per channel), one path per colour.
-  std::map<int, std::string> paths;
-  size_t drawn = 0;
-  for (const auto& [q, p] : points) {
-    if (!clip.Contains(q)) continue;
-    const Eigen::Vector2d s = vp.Map(q);
-    const int key = ((p->color(0) >> 5) << 6) | ((p->color(1) >> 5) << 3) |
-                    (p->color(2) >> 5);
-    paths[key] += "M" + C(s.x()) + " " + C(s.y()) + "h0";
-    ++drawn;
-  }
   std::ostringstream svg;
   svg << "<svg class=\"drawing\" viewBox=\"0 0 " << C(vp.width) << ' '
       << C(vp.height) << "\" role=\"img\" aria-label=\"top view\">\n";
   svg << "<rect class=\"bg\" width=\"" << C(vp.width) << "\" height=\""
-      << C(vp.height) << "\"/>\n<g class=\"points\">\n";
-  for (const auto& [key, d] : paths) {
-    const int r = ((key >> 6) & 7) * 255 / 7, g = ((key >> 3) & 7) * 255 / 7,
-              bl = (key & 7) * 255 / 7;
-    svg << "<path stroke=\"" << Hex(r, g, bl) << "\" d=\"" << d << "\"/>\n";
-  }
-  svg << "</g>\n";
+      << C(vp.height) << "\"/>\n";
+  const size_t drawn = DrawTopViewPoints(points, clip, vp, svg);
   const double cam_r = std::clamp(
       50.0 / std::sqrt(static_cast<double>(cams.size())), 2.5, 6.0);
-  if (!refs.empty()) {
-    svg << "<g class=\"ref-links\">\n";
-    for (const auto& [name, q] : refs) {
-      const Image* m = model.FindImageWithName(name);
-      if (m == nullptr) continue;
-      svg << Line(vp.Map(frame.Project(m->ProjectionCenter())), vp.Map(q), "")
-          << '\n';
-    }
-    svg << "</g>\n<g class=\"ref\">\n";
-    for (const auto& [name, q] : refs) {
-      const Eigen::Vector2d s = vp.Map(q);
-      svg << "<rect x=\"" << C(s.x() - cam_r) << "\" y=\"" << C(s.y() - cam_r)
-          << "\" width=\"" << C(2 * cam_r) << "\" height=\"" << C(2 * cam_r)
-          << "\"><title>reference " << Esc(name) << "</title></rect>\n";
-    }
-    svg << "</g>\n";
-  }
-  svg << "<g class=\"cams\">\n";
-  for (const auto& [image, q] : cams) {
-    const Eigen::Vector2d s = vp.Map(q);
-    Eigen::Vector2d dir = frame.ProjectDirection(
-        image->cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ());
-    const Eigen::Vector2d tip = vp.Map(q + 0.035 * span * dir);
-    auto it = community.find(image->name);
-    const std::string color =
-        it == community.end() ? "#1f77b4" : CommunityColor(it->second);
-    svg << "<g stroke=\"" << color << "\" fill=\"" << color << "\">"
-        << Line(s, tip, "") << "<circle cx=\"" << C(s.x()) << "\" cy=\""
-        << C(s.y()) << "\" r=\"" << C(cam_r) << "\"><title>"
-        << Esc(StrCat(image->name, " (image ", image->image_id, ")",
-                      it == community.end()
-                          ? ""
-                          : StrCat(", community ", it->second)))
-        << "</title></circle></g>\n";
-  }
+  DrawReferenceCameras(model, frame, refs, vp, cam_r, svg);
+  DrawTopViewCameras(cams, frame, vp, span, cam_r, community, svg);
   svg << "</g>\n</svg>\n";
 
   std::ostringstream out;
   out << "<h2>" << Esc(title) << "</h2>\n<p class=\"caption\">"
-      << model.NumRegImages() << " cameras (dots with their viewing "
-      << "direction" << (community.empty() ? "" : ", coloured by community")
-      << ") and " << drawn << " of " << model.NumPoints3D()
-      << " points, "
-      << (frame.along_up
-              ? "seen from above (looking down the cameras' mean up "
-                "direction)."
-              : "projected onto the plane of the two main directions of the "
-                "camera centres (the cameras disagree on which way is up).");
-  if (in.reference) {
-    if (aligned) {
-      out << " Grey squares: the reference cameras after a robust "
-             "similarity alignment on "
-          << num_common
-          << " common images; a thin line joins each camera to its "
-             "reference.";
-    } else {
-      out << " The reference could not be aligned (" << num_common
-          << " common images).";
-    }
-  }
+      << TopViewCaption(in, model, !community.empty(), drawn,
+                        frame.along_up, aligned, num_common);
   out << "</p>\n<div class=\"figure\">\n" << svg.str() << "</div>\n";
   return out.str();
 }
