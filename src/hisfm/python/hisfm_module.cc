@@ -88,6 +88,7 @@ py::dict ViewGraphFunction(const py::object& database_path, const py::kwargs& kw
   AddHierarchicalMapperFlags(app, &options);
   AddLogLevelFlag(app, &log_level);
   ParseKeywords(app, KeywordArguments(kwargs));
+  CheckMapperOptions(options);
   const std::string database = PathText("database_path", database_path);
   nlohmann::json view_graph;
   {
