@@ -16,6 +16,7 @@
 #include "hisfm/verify/multiview_verifier.h"
 #include "hisfm/verify/relative_pose.h"
 #include "hisfm/verify/triangulation.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 using namespace hisfm;
 
@@ -58,7 +59,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   Database database(database_path);
-  const ViewGraph graph = ViewGraph::FromDatabase(database, 15);
+  const ViewGraph graph = ReadViewGraph(database, 15);
   std::map<ImagePair, int> labels;
   {
     std::ifstream in(labels_path);

@@ -14,179 +14,171 @@
 
 namespace hisfm {
 
-void AddHierarchicalMapperFlags(CLI::App& app,
-                                HierarchicalMapperOptions* o) {
+namespace {
+
+// The explicit table of the mapper's flags: calls visit(flag, option, help)
+// for each flag and the option (field of `o`) it sets. It both adds the
+// flags and names the flag of an option that fails its check.
+template <typename Visit>
+void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   auto& h = o->hierarchy;
-  app.add_option("--HiSfM.min_num_matches", o->min_num_matches,
-                 "Ignore verified pairs with fewer inliers")
-      ->capture_default_str();
-  app.add_option("--HiSfM.top_k", h.communities.top_k,
-                 "Strongest neighbours kept per image to form communities (k)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.num_trees", h.skeleton.num_trees,
-                 "Spanning trees packed over the communities (K); 0 = "
-                 "max(1, round(n / images_per_tree))")
-      ->capture_default_str();
-  app.add_option("--HiSfM.images_per_tree", h.skeleton.images_per_tree,
-                 "Images per tree for the automatic K")
-      ->capture_default_str();
-  app.add_option("--HiSfM.verify_threshold", h.skeleton.verify_threshold,
-                 "Minimum verifier score for a bridge (tau)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.num_top_bridges", h.skeleton.num_top_bridges,
-                 "Extra verified top-weight bridges after the trees")
-      ->capture_default_str();
-  app.add_option("--HiSfM.num_backup_bridges", h.skeleton.num_backup_bridges,
-                 "Verified backup bridges per weak tree bridge")
-      ->capture_default_str();
-  app.add_option("--HiSfM.weak_link_max_inliers",
-                 h.skeleton.weak_link_max_inliers,
-                 "Tree bridges with fewer inliers are weak links")
-      ->capture_default_str();
-  app.add_option("--HiSfM.restore_connectivity",
-                 h.skeleton.restore_connectivity,
-                 "Repair the trees' union to K-edge-connectivity across "
-                 "minimum cuts")
-      ->capture_default_str();
-  app.add_option("--HiSfM.fallback_threshold", h.skeleton.fallback_threshold,
-                 "Communities the trees leave apart are joined through the "
-                 "best-scoring bridge already scored if it reaches this "
-                 "(>= verify_threshold: off)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.max_cycle_rotation_deg",
-                 h.skeleton.max_cycle_rotation_deg,
-                 "A bridge closing a cycle with the skeleton is taken only if "
-                 "the cycle's rotations compose within this (degrees; 0: "
-                 "off)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.leaf_edges", h.leaves.leaf_edges,
-                 "Edges per leaf to skeletal images of its community")
-      ->capture_default_str();
-  app.add_option("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,
-                 "Extra leaf-to-leaf edges per leaf inside its community")
-      ->capture_default_str();
-  app.add_option("--HiSfM.verifier", o->verifier.verifier,
-                 "Bridge verifier: builtin, none, scores:FILE, command:CMD")
-      ->capture_default_str();
-  app.add_option("--HiSfM.trusted_threshold",
-                 o->verifier.verified_hierarchy.trusted_threshold,
-                 "builtin verifier: a trusted edge (community, intra-community "
-                 "or leaf edge) scoring below this is removed and the "
-                 "hierarchy rebuilt")
-      ->capture_default_str();
-  app.add_option("--HiSfM.support_edges",
-                 o->verifier.verified_hierarchy.support_edges,
-                 "builtin verifier: each image's strongest pairs that pass "
-                 "--HiSfM.support_threshold also serve the reconstruction")
-      ->capture_default_str();
-  app.add_option("--HiSfM.support_threshold",
-                 o->verifier.verified_hierarchy.support_threshold,
-                 "builtin verifier: minimum score of a support edge")
-      ->capture_default_str();
-  app.add_option("--HiSfM.clean_inliers",
-                 o->verifier.verified_hierarchy.clean_inliers,
-                 "builtin verifier: reconstruct each edge from the inliers "
-                 "that agree with the geometry its test accepted")
-      ->capture_default_str();
-  app.add_option("--HiSfM.burstiness_weights",
-                 o->verifier.burstiness_weights,
-                 "builtin verifier: rank pairs by burstiness-weighted support "
-                 "instead of inlier count")
-      ->capture_default_str();
-  app.add_option("--HiSfM.min_relative_coverage",
-                 o->verifier.builtin.min_relative_coverage,
-                 "context verifier: a bridge's inlier coverage relative to "
-                 "each image's trusted pair that scores 0.5")
-      ->capture_default_str();
-  app.add_option("--HiSfM.coverage_grid_cells",
-                 o->verifier.builtin.grid_cells,
-                 "context verifier: grid cells along the longer image side")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_pairs", o->verifier.filter_pairs,
-                 "Remove pairs explained by repeated structure before the "
-                 "hierarchy (context verifier only)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_top_pairs", o->filter_top_pairs,
-                 "The pair filter judges each image's this many strongest "
-                 "pairs (0 = all)")
-      ->capture_default_str();
+  visit("--HiSfM.min_num_matches", o->min_num_matches,
+        "Ignore verified pairs with fewer inliers");
+  visit("--HiSfM.top_k", h.communities.top_k,
+        "Strongest neighbours kept per image to form communities (k)");
+  visit("--HiSfM.num_trees", h.skeleton.num_trees,
+        "Spanning trees packed over the communities (K); 0 = "
+        "max(1, round(n / images_per_tree))");
+  visit("--HiSfM.images_per_tree", h.skeleton.images_per_tree,
+        "Images per tree for the automatic K");
+  visit("--HiSfM.verify_threshold", h.skeleton.verify_threshold,
+        "Minimum verifier score for a bridge (tau)");
+  visit("--HiSfM.num_top_bridges", h.skeleton.num_top_bridges,
+        "Extra verified top-weight bridges after the trees");
+  visit("--HiSfM.num_backup_bridges", h.skeleton.num_backup_bridges,
+        "Verified backup bridges per weak tree bridge");
+  visit("--HiSfM.weak_link_max_inliers",
+        h.skeleton.weak_link_max_inliers,
+        "Tree bridges with fewer inliers are weak links");
+  visit("--HiSfM.restore_connectivity",
+        h.skeleton.restore_connectivity,
+        "Repair the trees' union to K-edge-connectivity across "
+        "minimum cuts");
+  visit("--HiSfM.fallback_threshold", h.skeleton.fallback_threshold,
+        "Communities the trees leave apart are joined through the "
+        "best-scoring bridge already scored if it reaches this "
+        "(>= verify_threshold: off)");
+  visit("--HiSfM.max_cycle_rotation_deg", h.skeleton.max_cycle_rotation_deg,
+        "A bridge closing a cycle with the skeleton is taken only if the "
+        "cycle's rotations compose within this (degrees; 0: off)");
+  visit("--HiSfM.leaf_edges", h.leaves.leaf_edges,
+        "Edges per leaf to skeletal images of its community");
+  visit("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,
+        "Extra leaf-to-leaf edges per leaf inside its community");
+  visit("--HiSfM.verifier", o->verifier.verifier,
+        "Bridge verifier: builtin, none, scores:FILE, command:CMD");
+  visit("--HiSfM.trusted_threshold",
+        o->verifier.verified_hierarchy.trusted_threshold,
+        "builtin verifier: a trusted edge (community, intra-community "
+        "or leaf edge) scoring below this is removed and the "
+        "hierarchy rebuilt");
+  visit("--HiSfM.support_edges",
+        o->verifier.verified_hierarchy.support_edges,
+        "builtin verifier: each image's strongest pairs that pass "
+        "--HiSfM.support_threshold also serve the reconstruction");
+  visit("--HiSfM.support_threshold",
+        o->verifier.verified_hierarchy.support_threshold,
+        "builtin verifier: minimum score of a support edge");
+  visit("--HiSfM.clean_inliers",
+        o->verifier.verified_hierarchy.clean_inliers,
+        "builtin verifier: reconstruct each edge from the inliers "
+        "that agree with the geometry its test accepted");
+  visit("--HiSfM.burstiness_weights",
+        o->verifier.burstiness_weights,
+        "builtin verifier: rank pairs by burstiness-weighted support "
+        "instead of inlier count");
+  visit("--HiSfM.min_relative_coverage",
+        o->verifier.builtin.min_relative_coverage,
+        "context verifier: a bridge's inlier coverage relative to "
+        "each image's trusted pair that scores 0.5");
+  visit("--HiSfM.coverage_grid_cells",
+        o->verifier.builtin.grid_cells,
+        "context verifier: grid cells along the longer image side");
+  visit("--HiSfM.filter_pairs", o->verifier.filter_pairs,
+        "Remove pairs explained by repeated structure before the "
+        "hierarchy (context verifier only)");
+  visit("--HiSfM.filter_top_pairs", o->filter_top_pairs,
+        "The pair filter judges each image's this many strongest "
+        "pairs (0 = all)");
   auto& pf = o->verifier.pair_filter;
-  app.add_option("--HiSfM.filter_min_distinctive_ratio",
-                 pf.min_distinctive_ratio,
-                 "Pair filter: distinctive inliers needed, as a fraction of "
-                 "the expected number")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_distinctive_significance",
-                 pf.distinctive_significance,
-                 "Pair filter: Poisson significance of a distinctive "
-                 "shortfall")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_min_three_view_consistency",
-                 pf.min_three_view_consistency,
-                 "Pair filter: fraction of inliers consistent in three views")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_num_third_views", pf.num_third_views,
-                 "Pair filter: third views tried per image")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_num_threads", pf.num_threads,
-                 "Pair filter: threads of the three-view test (0 = one per "
-                 "core)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.filter_min_relative_coverage",
-                 pf.min_relative_coverage,
-                 "Pair filter: coverage relative to the image's best-covering "
-                 "strong pair")
-      ->capture_default_str();
-  app.add_option("--HiSfM.min_distinctive_ratio",
-                 o->verifier.builtin.min_distinctive_ratio,
-                 "context verifier: distinctive inliers ratio scoring 0.5")
-      ->capture_default_str();
-  app.add_option("--HiSfM.distinctive_significance",
-                 o->verifier.builtin.distinctive_significance,
-                 "context verifier: significance of a distinctive shortfall")
-      ->capture_default_str();
-  app.add_option("--HiSfM.verifier_scan_memory_mb",
-                 o->verifier.builtin.max_scan_memory_mb,
-                 "context verifier: MiB for what the tracks' read records of "
-                 "the bridges (beyond it, bridges are read when asked for)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
-                 "Bridges per call of a command verifier")
-      ->capture_default_str();
-  app.add_option("--HiSfM.attach_local_only", o->attach_local_only,
-                 "Attach leaves with local bundle adjustment only, then one "
-                 "global bundle adjustment")
-      ->capture_default_str();
-  app.add_option("--HiSfM.scaffold_ba_global_ratio",
-                 o->scaffold_ba_global_ratio,
-                 "Scaffold: growth in images or points between global bundle "
-                 "adjustments (colmap's default 1.1)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.scaffold_ba_global_max_refinements",
-                 o->scaffold_ba_global_max_refinements,
-                 "Scaffold: repetitions of each global bundle adjustment "
-                 "(colmap's default 5)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.ba_global_function_tolerance",
-                 o->ba_global_function_tolerance,
-                 "Both colmap runs: relative cost change that ends a global "
-                 "bundle adjustment (colmap's default 0)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.ba_local_max_refinements",
-                 o->ba_local_max_refinements,
-                 "Both colmap runs: repetitions of each local bundle "
-                 "adjustment (colmap's default 2)")
-      ->capture_default_str();
-  app.add_option("--HiSfM.global_bundle_adjustment",
-                 o->global_bundle_adjustment,
-                 "Run an extra colmap bundle_adjuster at the end")
-      ->capture_default_str();
-  app.add_option("--HiSfM.min_model_size", o->min_model_size,
-                 "Components with fewer images are not reconstructed")
-      ->capture_default_str();
-  app.add_option("--colmap_path", o->colmap.colmap_path,
-                 "The colmap executable")
-      ->capture_default_str();
+  visit("--HiSfM.filter_min_distinctive_ratio",
+        pf.min_distinctive_ratio,
+        "Pair filter: distinctive inliers needed, as a fraction of "
+        "the expected number");
+  visit("--HiSfM.filter_distinctive_significance",
+        pf.distinctive_significance,
+        "Pair filter: Poisson significance of a distinctive "
+        "shortfall");
+  visit("--HiSfM.filter_min_three_view_consistency",
+        pf.min_three_view_consistency,
+        "Pair filter: fraction of inliers consistent in three views");
+  visit("--HiSfM.filter_num_third_views", pf.num_third_views,
+        "Pair filter: third views tried per image");
+  visit("--HiSfM.filter_num_threads", pf.num_threads,
+        "Pair filter: threads of the three-view test (0 = one per "
+        "core)");
+  visit("--HiSfM.filter_min_relative_coverage",
+        pf.min_relative_coverage,
+        "Pair filter: coverage relative to the image's best-covering "
+        "strong pair");
+  visit("--HiSfM.min_distinctive_ratio",
+        o->verifier.builtin.min_distinctive_ratio,
+        "context verifier: distinctive inliers ratio scoring 0.5");
+  visit("--HiSfM.distinctive_significance",
+        o->verifier.builtin.distinctive_significance,
+        "context verifier: significance of a distinctive shortfall");
+  visit("--HiSfM.verifier_scan_memory_mb",
+        o->verifier.builtin.max_scan_memory_mb,
+        "context verifier: MiB for what the tracks' read records of "
+        "the bridges (beyond it, bridges are read when asked for)");
+  visit("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
+        "Bridges per call of a command verifier");
+  visit("--HiSfM.attach_local_only", o->attach_local_only,
+        "Attach leaves with local bundle adjustment only, then one "
+        "global bundle adjustment");
+  visit("--HiSfM.scaffold_ba_global_ratio",
+        o->scaffold_ba_global_ratio,
+        "Scaffold: growth in images or points between global bundle "
+        "adjustments (colmap's default 1.1)");
+  visit("--HiSfM.scaffold_ba_global_max_refinements",
+        o->scaffold_ba_global_max_refinements,
+        "Scaffold: repetitions of each global bundle adjustment "
+        "(colmap's default 5)");
+  visit("--HiSfM.ba_global_function_tolerance",
+        o->ba_global_function_tolerance,
+        "Both colmap runs: relative cost change that ends a global "
+        "bundle adjustment (colmap's default 0)");
+  visit("--HiSfM.ba_local_max_refinements",
+        o->ba_local_max_refinements,
+        "Both colmap runs: repetitions of each local bundle "
+        "adjustment (colmap's default 2)");
+  visit("--HiSfM.global_bundle_adjustment",
+        o->global_bundle_adjustment,
+        "Run an extra colmap bundle_adjuster at the end");
+  visit("--HiSfM.min_model_size", o->min_model_size,
+        "Components with fewer images are not reconstructed");
+  visit("--colmap_path", o->colmap.colmap_path,
+        "The colmap executable");
+}
+
+}  // namespace
+
+void AddHierarchicalMapperFlags(CLI::App& app,
+                                HierarchicalMapperOptions* options) {
+  ForEachMapperFlag(options, [&](const std::string& flag, auto& option,
+                                 const std::string& help) {
+    app.add_option(flag, option, help)->capture_default_str();
+  });
+}
+
+void CheckOptionFlags(const OptionFlagMap& flags,
+                      const std::function<void()>& check) {
+  try {
+    check();
+  } catch (const OptionError& e) {
+    auto it = flags.find(e.field());
+    if (it == flags.end()) throw;
+    throw e.WithName(it->second);
+  }
+}
+
+OptionFlagMap MapperOptionFlags(const HierarchicalMapperOptions& options) {
+  OptionFlagMap flags;
+  // Only the options' addresses are taken: nothing is written.
+  ForEachMapperFlag(const_cast<HierarchicalMapperOptions*>(&options),
+                    [&](const std::string& flag, const auto& option,
+                        const std::string&) { flags[&option] = flag; });
+  return flags;
 }
 
 void AddMapperPathFlags(CLI::App& app, MapperPaths* paths) {
@@ -201,27 +193,30 @@ void AddMapperPathFlags(CLI::App& app, MapperPaths* paths) {
                  "Intermediate files (default OUTPUT_work)");
 }
 
-void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options) {
-  app.add_option("--verdict_threshold_deg", options->verdict_threshold_deg,
-                 "Pair error threshold of the verdict (degrees)")
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
+                            OptionFlagMap* flags) {
+  AddOptionFlag(app, flags, "--verdict_threshold_deg",
+                options->verdict_threshold_deg,
+                "Pair error threshold of the verdict (degrees)")
       ->capture_default_str();
-  app.add_option("--min_correct_pair_fraction",
-                 options->min_correct_pair_fraction,
-                 "Fraction of pairs within the threshold needed for "
-                 "'correct'")
+  AddOptionFlag(app, flags, "--min_correct_pair_fraction",
+                options->min_correct_pair_fraction,
+                "Fraction of pairs within the threshold needed for "
+                "'correct'")
       ->capture_default_str();
-  app.add_option("--require_all_registered", options->require_all_registered,
-                 "'correct' needs every reference image registered")
+  AddOptionFlag(app, flags, "--require_all_registered",
+                options->require_all_registered,
+                "'correct' needs every reference image registered")
       ->capture_default_str();
-  app.add_option("--min_model_size", options->min_model_size,
-                 "Models with at least this many reference images count as "
-                 "parts of an oversplit result")
+  AddOptionFlag(app, flags, "--min_model_size", options->min_model_size,
+                "Models with at least this many reference images count as "
+                "parts of an oversplit result")
       ->capture_default_str()
       ->check(CLI::Range(0, 1000000));
-  app.add_option("--alignment_inlier_threshold",
-                 options->alignment.inlier_threshold,
-                 "Centre alignment inlier distance, fraction of the scene "
-                 "extent")
+  AddOptionFlag(app, flags, "--alignment_inlier_threshold",
+                options->alignment.inlier_threshold,
+                "Centre alignment inlier distance, fraction of the scene "
+                "extent")
       ->capture_default_str();
 }
 
@@ -283,36 +278,6 @@ std::vector<std::string> TakeMapperPassThrough(
   return out;
 }
 
-std::string FlagsNamedIn(const CLI::App& app, const std::string& message) {
-  std::set<std::string> words;
-  std::string word;
-  for (const char c : message + " ") {
-    if (std::isalnum(static_cast<unsigned char>(c)) || c == '_') {
-      word += c;
-    } else {
-      if (word.find('_') != std::string::npos) words.insert(word);
-      word.clear();
-    }
-  }
-  std::string flags;
-  for (const CLI::Option* option : app.get_options()) {
-    const std::string name = option->get_name();
-    for (const std::string& w : words) {
-      // "--HiSfM.filter_min_distinctive_ratio" ends with the field
-      // "min_distinctive_ratio" after a separator.
-      const size_t n = name.size();
-      const bool match = n > w.size() &&
-                         name.compare(n - w.size(), w.size(), w) == 0 &&
-                         std::strchr("._-", name[n - w.size() - 1]) != nullptr;
-      if (match) {
-        flags += (flags.empty() ? "" : ", ") + name;
-        break;
-      }
-    }
-  }
-  return flags.empty() ? "" : StrCat(" (set by ", flags, ")");
-}
-
 int ParseCommandLine(CLI::App& app, int argc, char** argv) {
   try {
     app.parse(argc, argv);
@@ -339,13 +304,8 @@ void PrepareMapperCommand(CLI::App& app, HierarchicalMapperOptions* options,
   app.allow_config_extras(CLI::config_extras_mode::capture);
 }
 
-void CheckMapperOptions(const CLI::App& app,
-                        const HierarchicalMapperOptions& options) {
-  try {
-    options.Check();
-  } catch (const Error& e) {
-    throw Error(StrCat(e.what(), FlagsNamedIn(app, e.what())));
-  }
+void CheckMapperOptions(const HierarchicalMapperOptions& options) {
+  CheckOptionFlags(MapperOptionFlags(options), [&] { options.Check(); });
 }
 
 int ParseMapperCommand(CLI::App& app, int argc, char** argv,
@@ -360,7 +320,7 @@ int ParseMapperCommand(CLI::App& app, int argc, char** argv,
       app.remaining(), project->count() > 0
                            ? ReadMapperEntries(project->as<std::string>())
                            : std::map<std::string, std::string>());
-  CheckMapperOptions(app, *options);
+  CheckMapperOptions(*options);
   return -1;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -20,11 +21,6 @@ void AddHierarchicalMapperFlags(CLI::App& app,
 /// --output_path (required) and --work_path.
 void AddMapperPathFlags(CLI::App& app, MapperPaths* paths);
 
-/// Adds the options of the pose evaluation (`hisfm evaluate`):
-/// --verdict_threshold_deg, --min_correct_pair_fraction,
-/// --require_all_registered, --min_model_size, --alignment_inlier_threshold.
-void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options);
-
 /// Adds --log_level and applies it after parsing.
 void AddLogLevelFlag(CLI::App& app, std::string* level);
 
@@ -39,11 +35,6 @@ std::vector<std::string> TakeMapperPassThrough(
     const std::vector<std::string>& remaining,
     const std::map<std::string, std::string>& file_entries = {});
 
-/// The flags of `app` whose names end with a snake_case word of `message`
-/// (an options Check() failure names the field, not the flag), as
-/// " (set by --A, --B)", or "" if none.
-std::string FlagsNamedIn(const CLI::App& app, const std::string& message);
-
 /// Parses a command line. Help prints the help (exit code 0); a parse error
 /// prints one line, "error: ... (see -h)", on stderr (exit code 1). Returns
 /// -1 when the command should go on, else the exit code.
@@ -55,10 +46,39 @@ int ParseCommandLine(CLI::App& app, int argc, char** argv);
 void PrepareMapperCommand(CLI::App& app, HierarchicalMapperOptions* options,
                           std::string* log_level);
 
-/// options.Check(), whose one-line error also names the flags of `app` that
-/// set the failing option (FlagsNamedIn).
-void CheckMapperOptions(const CLI::App& app,
-                        const HierarchicalMapperOptions& options);
+/// The flag that sets each option, by the option's address
+/// (OptionError::field()): an explicit mapping, no guessing from names.
+using OptionFlagMap = std::map<const void*, std::string>;
+
+/// app.add_option(flag, option, help), recording in `flags` that `flag`
+/// sets `option`.
+template <typename T>
+CLI::Option* AddOptionFlag(CLI::App& app, OptionFlagMap* flags,
+                           const std::string& flag, T& option,
+                           const std::string& help = "") {
+  (*flags)[&option] = flag;
+  return app.add_option(flag, option, help);
+}
+
+/// Adds the options of the pose evaluation (`hisfm evaluate`):
+/// --verdict_threshold_deg, --min_correct_pair_fraction,
+/// --require_all_registered, --min_model_size, --alignment_inlier_threshold;
+/// `flags` records the option each flag sets (CheckOptionFlags).
+void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
+                            OptionFlagMap* flags);
+
+/// Runs `check` (an options' Check()); an OptionError about an option of
+/// `flags` is rethrown naming its flag ("invalid option --num_images = 1:
+/// must be >= 2"), any other error as it is.
+void CheckOptionFlags(const OptionFlagMap& flags,
+                      const std::function<void()>& check);
+
+/// The flag (AddHierarchicalMapperFlags) that sets each option of `options`.
+OptionFlagMap MapperOptionFlags(const HierarchicalMapperOptions& options);
+
+/// options.Check(); an OptionError names the flag that sets the failing
+/// option ("invalid option --HiSfM.top_k = 0: must be >= 1").
+void CheckMapperOptions(const HierarchicalMapperOptions& options);
 
 /// Adds the mapper flags (AddHierarchicalMapperFlags) and --log_level to a
 /// command that has added its own, parses it, passes unknown `--Mapper.*`

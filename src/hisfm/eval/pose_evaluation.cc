@@ -177,12 +177,20 @@ std::string NameList(const std::vector<std::string>& names, size_t max) {
 }  // namespace
 
 void PoseEvaluationOptions::Check() const {
-  HISFM_CHECK_OPTION(!pair_thresholds_deg.empty());
-  for (const double t : pair_thresholds_deg) HISFM_CHECK_OPTION(t >= 0.0);
-  HISFM_CHECK_OPTION(verdict_threshold_deg >= 0.0);
-  HISFM_CHECK_OPTION(min_correct_pair_fraction >= 0.0 &&
-                     min_correct_pair_fraction <= 1.0);
-  HISFM_CHECK_OPTION(min_model_size >= 1);
+  HISFM_CHECK_OPTION(pair_thresholds_deg,
+                     !pair_thresholds_deg.empty(), "non-empty");
+  HISFM_CHECK_OPTION(pair_thresholds_deg,
+                     std::all_of(pair_thresholds_deg.begin(),
+                                 pair_thresholds_deg.end(),
+                                 [](double t) { return t >= 0.0; }),
+                     "all >= 0.0");
+  HISFM_CHECK_OPTION(verdict_threshold_deg,
+                     verdict_threshold_deg >= 0.0, ">= 0.0");
+  HISFM_CHECK_OPTION(min_correct_pair_fraction,
+                     min_correct_pair_fraction >= 0.0 &&
+                     min_correct_pair_fraction <= 1.0,
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(min_model_size, min_model_size >= 1, ">= 1");
   alignment.Check();
 }
 

@@ -104,9 +104,9 @@ double PointSetExtent(const std::vector<Eigen::Vector3d>& points) {
 }
 
 void SimilarityAlignmentOptions::Check() const {
-  HISFM_CHECK_OPTION(inlier_threshold > 0.0);
-  HISFM_CHECK_OPTION(num_iterations > 0);
-  HISFM_CHECK_OPTION(num_local_refits >= 0);
+  HISFM_CHECK_OPTION(inlier_threshold, inlier_threshold > 0.0, "> 0.0");
+  HISFM_CHECK_OPTION(num_iterations, num_iterations > 0, "> 0");
+  HISFM_CHECK_OPTION(num_local_refits, num_local_refits >= 0, ">= 0");
 }
 
 SimilarityAlignment AlignSimilarityRobust(

@@ -40,17 +40,19 @@ int RunCheckDatabase(int argc, char** argv) {
       "hisfm check_database");
   std::string database_path;
   DatabaseValidationOptions options;
+  OptionFlagMap flags;
   app.add_option("--database_path", database_path, "COLMAP database")
       ->required();
-  app.add_option("--max_problems", options.max_problems,
-                 "Stop after this many problems (0: all)")
+  AddOptionFlag(app, &flags, "--max_problems", options.max_problems,
+                "Stop after this many problems (0: all)")
       ->capture_default_str();
-  app.add_option("--check_matches", options.check_matches,
-                 "Also check the raw matches table")
+  AddOptionFlag(app, &flags, "--check_matches", options.check_matches,
+                "Also check the raw matches table")
       ->capture_default_str();
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
+  CheckOptionFlags(flags, [&] { options.Check(); });
   Timer timer;
   std::vector<std::string> lines;
   for (const DatabaseProblem& p : ValidateDatabase(database_path, options)) {
@@ -69,13 +71,15 @@ int RunCheckModel(int argc, char** argv) {
       "hisfm check_model");
   std::string input_path;
   ModelValidationOptions options;
+  OptionFlagMap flags;
   app.add_option("--input_path", input_path, "Model folder")->required();
-  app.add_option("--max_problems", options.max_problems,
-                 "Stop after this many problems (0: all)")
+  AddOptionFlag(app, &flags, "--max_problems", options.max_problems,
+                "Stop after this many problems (0: all)")
       ->capture_default_str();
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
+  CheckOptionFlags(flags, [&] { options.Check(); });
   Timer timer;
   std::vector<std::string> lines;
   for (const ModelProblem& p :

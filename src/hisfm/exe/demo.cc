@@ -89,17 +89,20 @@ int RunDemoCommand(int argc, char** argv) {
       "hisfm demo");
   std::string workspace = DefaultWorkspace();
   SynthOptions synth;
+  OptionFlagMap synth_flags;
   HierarchicalMapperOptions options;
   std::string log_level = "info";
   app.add_option("--workspace_path", workspace,
                  "Folder for the scene, the models and the report (replaced "
                  "if it holds an earlier demo)")
       ->capture_default_str();
-  app.add_option("--scene", synth.scene, "Synthetic scene")
+  AddOptionFlag(app, &synth_flags, "--scene", synth.scene, "Synthetic scene")
       ->capture_default_str();
-  app.add_option("--num_images", synth.num_images, "Number of images")
+  AddOptionFlag(app, &synth_flags, "--num_images", synth.num_images,
+                "Number of images")
       ->capture_default_str();
-  app.add_option("--seed", synth.seed, "Random seed of the scene")
+  AddOptionFlag(app, &synth_flags, "--seed", synth.seed,
+                "Random seed of the scene")
       ->capture_default_str();
   if (const int code =
           ParseMapperCommand(app, argc, argv, &options, &log_level);
@@ -108,7 +111,7 @@ int RunDemoCommand(int argc, char** argv) {
   }
   // Ctrl-C stops colmap and removes the temporary outputs.
   InterruptScope interrupt_scope;
-  synth.Check();
+  CheckOptionFlags(synth_flags, [&] { synth.Check(); });
   CheckColmapAvailable(options.colmap);
   workspace = fs::absolute(workspace).lexically_normal().string();
   // A folder of an earlier demo holds kMarker.

@@ -43,7 +43,8 @@ int RunEvaluate(int argc, char** argv) {
       ->required();
   app.add_flag("--json", json, "Print JSON instead of the summary");
   app.add_option("--output_path", output_path, "Also write the JSON here");
-  AddPoseEvaluationFlags(app, &options);
+  OptionFlagMap flags;
+  AddPoseEvaluationFlags(app, &options, &flags);
   std::string database_path, image_path;
   app.add_option("--database_path", database_path,
                  "Also re-triangulate the largest model's poses from this "
@@ -53,7 +54,7 @@ int RunEvaluate(int argc, char** argv) {
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
-  options.Check();
+  CheckOptionFlags(flags, [&] { options.Check(); });
   const std::vector<std::string> model_paths = ResultModelFolders(model_path);
   if (!output_path.empty()) {
     std::vector<std::string> inputs = model_paths;

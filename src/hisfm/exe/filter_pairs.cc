@@ -18,6 +18,7 @@ int RunFilterPairsCommand(int argc, char** argv) {
   std::string database_path, image_path, output_path;
   std::string log_level = "info";
   ExhaustiveFilterOptions options;
+  OptionFlagMap flags;
   app.add_option("--database_path", database_path, "COLMAP database")
       ->required();
   app.add_option("--image_path", image_path,
@@ -25,29 +26,30 @@ int RunFilterPairsCommand(int argc, char** argv) {
   app.add_option("--output_path", output_path,
                  "Filtered database to write (must not exist)")
       ->required();
-  app.add_option("--HiSfM.min_num_matches", options.min_num_matches,
-                 "Ignore verified pairs with fewer inliers")
+  AddOptionFlag(app, &flags, "--HiSfM.min_num_matches", options.min_num_matches,
+                "Ignore verified pairs with fewer inliers")
       ->capture_default_str();
-  app.add_option("--HiSfM.top_k", options.communities.top_k,
-                 "Strongest neighbours per image for the verifier's context")
+  AddOptionFlag(app, &flags, "--HiSfM.top_k", options.communities.top_k,
+                "Strongest neighbours per image for the verifier's context")
       ->capture_default_str();
-  app.add_option("--HiSfM.verify_threshold", options.verify_threshold,
-                 "Minimum score of a kept pair")
+  AddOptionFlag(app, &flags, "--HiSfM.verify_threshold",
+                options.verify_threshold, "Minimum score of a kept pair")
       ->capture_default_str();
-  app.add_option("--HiSfM.verifier", options.verifier.verifier,
-                 "builtin, none, scores:FILE or command:CMD")
+  AddOptionFlag(app, &flags, "--HiSfM.verifier", options.verifier.verifier,
+                "builtin, none, scores:FILE or command:CMD")
       ->capture_default_str();
-  app.add_option("--HiSfM.verifier_batch_size", options.batch_size,
-                 "Pairs per verifier call")
+  AddOptionFlag(app, &flags, "--HiSfM.verifier_batch_size", options.batch_size,
+                "Pairs per verifier call")
       ->capture_default_str();
-  app.add_option("--HiSfM.min_relative_coverage",
-                 options.verifier.builtin.min_relative_coverage,
-                 "builtin verifier: relative inlier coverage scoring 0.5")
+  AddOptionFlag(app, &flags, "--HiSfM.min_relative_coverage",
+                options.verifier.builtin.min_relative_coverage,
+                "builtin verifier: relative inlier coverage scoring 0.5")
       ->capture_default_str();
   AddLogLevelFlag(app, &log_level);
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
+  CheckOptionFlags(flags, [&] { options.Check(); });
   std::cout << FilterPairsExhaustively(database_path, image_path, output_path,
                                        options)
                    .dump(2)

@@ -109,9 +109,46 @@ TEST(HisfmCli, BadInputIsOneLineAndNonZero) {
           tmp);
   EXPECT_NE(bad_option.code, 0);
   EXPECT_EQ(NumLines(bad_option.output), 1u) << bad_option.output;
-  EXPECT_NE(bad_option.output.find("(set by --HiSfM.top_k)"),
-            std::string::npos)
-      << bad_option.output;
+  EXPECT_EQ(bad_option.output,
+            "error: invalid option --HiSfM.top_k = 0: must be >= 1\n");
+  const Result bad_ratio = RunHisfm(
+      "view_graph --database_path x.db --output_path o.json "
+      "--HiSfM.filter_min_three_view_consistency=1.5",
+      tmp);
+  EXPECT_NE(bad_ratio.code, 0);
+  EXPECT_EQ(bad_ratio.output,
+            "error: invalid option --HiSfM.filter_min_three_view_consistency "
+            "= 1.5: must be in [0, 1]\n");
+  // Other commands' options too: synth's, reconstruct's.
+  const Result bad_synth =
+      RunHisfm("synth --output_path o --num_images 1", tmp);
+  EXPECT_NE(bad_synth.code, 0);
+  EXPECT_EQ(bad_synth.output,
+            "error: invalid option --num_images = 1: must be >= 2\n");
+  EXPECT_FALSE(fs::exists(tmp / "o"));
+  const Result bad_words = RunHisfm(
+      "reconstruct --image_path . --workspace_path w "
+      "--vocab_tree_num_words 8",
+      tmp);
+  EXPECT_NE(bad_words.code, 0);
+  EXPECT_EQ(bad_words.output,
+            "error: invalid option --vocab_tree_num_words = 8: must be 0 or "
+            ">= 16\n");
+  EXPECT_FALSE(fs::exists(tmp / "w"));
+  const Result bad_threshold = RunHisfm(
+      "evaluate --model m --reference r --alignment_inlier_threshold 0", tmp);
+  EXPECT_NE(bad_threshold.code, 0);
+  EXPECT_EQ(bad_threshold.output,
+            "error: invalid option --alignment_inlier_threshold = 0: must be "
+            "> 0.0\n");
+  const Result bad_batch = RunHisfm(
+      "filter_pairs --database_path x.db --output_path y.db "
+      "--HiSfM.verifier_batch_size 0",
+      tmp);
+  EXPECT_NE(bad_batch.code, 0);
+  EXPECT_EQ(bad_batch.output,
+            "error: invalid option --HiSfM.verifier_batch_size = 0: must be "
+            ">= 1\n");
 }
 
 // Mistyped output and work paths must never delete or replace an input or a

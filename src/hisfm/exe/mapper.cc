@@ -61,6 +61,7 @@ int RunViewGraphCommand(int argc, char** argv) {
   if (const int code = ParseCommandLine(app, argc, argv); code >= 0) {
     return code;
   }
+  CheckMapperOptions(options);
   if (!output_path.empty()) CheckOutputFile(output_path, {database_path});
   const nlohmann::json out =
       ComputeViewGraphJson(database_path, image_path, options);

@@ -8,7 +8,9 @@
 
 namespace hisfm {
 
-void CommunityOptions::Check() const { HISFM_CHECK_OPTION(top_k >= 1); }
+void CommunityOptions::Check() const {
+  HISFM_CHECK_OPTION(top_k, top_k >= 1, ">= 1");
+}
 
 Communities ComputeCommunities(const ViewGraph& graph,
                                const CommunityOptions& options) {

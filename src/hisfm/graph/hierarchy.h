@@ -5,7 +5,6 @@
 
 #include <functional>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -68,12 +67,5 @@ using ScorerFactory =
 Hierarchy BuildHierarchy(const ViewGraph& graph,
                          const ScorerFactory& make_scorer,
                          const HierarchyOptions& options);
-
-/// JSON description: community of each image, skeleton bridges with scores,
-/// intra-community skeleton edges, leaf edges, rejected bridges, components.
-/// `image_names` maps ids to names (may be empty).
-nlohmann::json HierarchyToJson(
-    const Hierarchy& hierarchy, const ViewGraph& graph,
-    const std::unordered_map<ImageId, std::string>& image_names);
 
 }  // namespace hisfm

@@ -7,8 +7,8 @@
 namespace hisfm {
 
 void LeafOptions::Check() const {
-  HISFM_CHECK_OPTION(leaf_edges >= 1);
-  HISFM_CHECK_OPTION(leaf_leaf_edges >= 0);
+  HISFM_CHECK_OPTION(leaf_edges, leaf_edges >= 1, ">= 1");
+  HISFM_CHECK_OPTION(leaf_leaf_edges, leaf_leaf_edges >= 0, ">= 0");
 }
 
 std::vector<ViewGraphEdge> AttachLeaves(const ViewGraph& graph,

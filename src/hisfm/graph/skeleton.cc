@@ -16,16 +16,22 @@
 namespace hisfm {
 
 void SkeletonOptions::Check() const {
-  HISFM_CHECK_OPTION(num_trees >= 0);
-  HISFM_CHECK_OPTION(images_per_tree >= 1);
-  HISFM_CHECK_OPTION(verify_threshold >= 0.0 && verify_threshold <= 1.0);
-  HISFM_CHECK_OPTION(num_top_bridges >= 0);
-  HISFM_CHECK_OPTION(num_backup_bridges >= 0);
-  HISFM_CHECK_OPTION(weak_link_max_inliers >= 0);
-  HISFM_CHECK_OPTION(max_verify_batch_size >= 1);
-  HISFM_CHECK_OPTION(fallback_threshold >= 0.0 && fallback_threshold <= 1.0);
-  HISFM_CHECK_OPTION(max_cycle_rotation_deg >= 0.0 &&
-                     max_cycle_rotation_deg <= 180.0);
+  HISFM_CHECK_OPTION(num_trees, num_trees >= 0, ">= 0");
+  HISFM_CHECK_OPTION(images_per_tree, images_per_tree >= 1, ">= 1");
+  HISFM_CHECK_OPTION(verify_threshold,
+                     verify_threshold >= 0.0 && verify_threshold <= 1.0,
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(num_top_bridges, num_top_bridges >= 0, ">= 0");
+  HISFM_CHECK_OPTION(num_backup_bridges, num_backup_bridges >= 0, ">= 0");
+  HISFM_CHECK_OPTION(weak_link_max_inliers, weak_link_max_inliers >= 0, ">= 0");
+  HISFM_CHECK_OPTION(max_verify_batch_size, max_verify_batch_size >= 1, ">= 1");
+  HISFM_CHECK_OPTION(fallback_threshold,
+                     fallback_threshold >= 0.0 && fallback_threshold <= 1.0,
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(max_cycle_rotation_deg,
+                     max_cycle_rotation_deg >= 0.0 &&
+                         max_cycle_rotation_deg <= 180.0,
+                     "in [0.0, 180.0]");
 }
 
 int SkeletonOptions::NumTreesFor(size_t num_images) const {

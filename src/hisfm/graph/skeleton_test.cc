@@ -292,6 +292,126 @@ TEST(Skeleton, BackupBridgesForWeakLinks) {
   EXPECT_EQ(s.bridges[1].role, BridgeRole::kBackup);
 }
 
+// (pair, role) of every bridge taken or rejected.
+std::set<std::pair<ImagePair, BridgeRole>> Roles(
+    const std::vector<BridgeRecord>& records) {
+  std::set<std::pair<ImagePair, BridgeRole>> out;
+  for (const BridgeRecord& r : records) out.insert({r.pair, r.role});
+  return out;
+}
+
+// Three communities A = {1, 2}, B = {3, 4}, C = {5, 6} (strong internal
+// pairs) and bridges A-B (1,3) 300, A-C (1,5) 200, A-C (2,6) 150,
+// B-C (3,5) 100, B-C (4,6) 90.
+ViewGraph ThreeCommunities() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(3, 4), 1001},
+       {ImagePair(5, 6), 1002}, {ImagePair(1, 3), 300},
+       {ImagePair(1, 5), 200},  {ImagePair(2, 6), 150},
+       {ImagePair(3, 5), 100},  {ImagePair(4, 6), 90}});
+}
+
+TEST(Skeleton, TopWeightBridgesGoOnCommunityPairsNotUsedYet) {
+  const ViewGraph g = ThreeCommunities();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 3u);
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.num_backup_bridges = 0;
+  // One tree: (1,3) and (1,5); no top-weight bridge by default.
+  const Skeleton tree_only = BuildSkeleton(g, c, nullptr, options);
+  EXPECT_EQ(Roles(tree_only.bridges),
+            (std::set<std::pair<ImagePair, BridgeRole>>{
+                {ImagePair(1, 3), BridgeRole::kTree},
+                {ImagePair(1, 5), BridgeRole::kTree}}));
+
+  // The heaviest bridge on an unused community pair is (3,5), not the
+  // heavier (2,6) of the used pair A-C; a second one finds no unused pair.
+  for (const int num_top : {1, 2}) {
+    options.num_top_bridges = num_top;
+    const Skeleton s = BuildSkeleton(g, c, nullptr, options);
+    EXPECT_EQ(Roles(s.bridges),
+              (std::set<std::pair<ImagePair, BridgeRole>>{
+                  {ImagePair(1, 3), BridgeRole::kTree},
+                  {ImagePair(1, 5), BridgeRole::kTree},
+                  {ImagePair(3, 5), BridgeRole::kTopWeight}}))
+        << num_top;
+    EXPECT_TRUE(s.Contains(3) && s.Contains(5));
+  }
+
+  // Verified: a rejected (3,5) is recorded, and the next bridge of B-C,
+  // (4,6), is taken instead.
+  RecordingScorer scorer;
+  scorer.reject = {ImagePair(3, 5)};
+  options.num_top_bridges = 1;
+  const Skeleton verified = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(Roles(verified.bridges),
+            (std::set<std::pair<ImagePair, BridgeRole>>{
+                {ImagePair(1, 3), BridgeRole::kTree},
+                {ImagePair(1, 5), BridgeRole::kTree},
+                {ImagePair(4, 6), BridgeRole::kTopWeight}}));
+  EXPECT_EQ(Roles(verified.rejected),
+            (std::set<std::pair<ImagePair, BridgeRole>>{
+                {ImagePair(3, 5), BridgeRole::kTopWeight}}));
+  for (const BridgeRecord& b : verified.bridges) EXPECT_TRUE(b.accepted);
+}
+
+// Communities A = {1, 2}, B = {3, 4}, C = {5, 6} joined only by weak
+// bridges: A-B (1,3) 40, (2,4) 30, (2,3) 20; A-C (1,5) 45, (2,6) 35.
+ViewGraph WeaklyJoinedCommunities() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(3, 4), 1001},
+       {ImagePair(5, 6), 1002}, {ImagePair(1, 3), 40},
+       {ImagePair(2, 4), 30},   {ImagePair(2, 3), 20},
+       {ImagePair(1, 5), 45},   {ImagePair(2, 6), 35}});
+}
+
+TEST(Skeleton, BackupBridgesPerWeakCommunityPair) {
+  const ViewGraph g = WeaklyJoinedCommunities();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 3u);
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.weak_link_max_inliers = 50;
+  using Roleset = std::set<std::pair<ImagePair, BridgeRole>>;
+  const Roleset tree = {{ImagePair(1, 5), BridgeRole::kTree},
+                        {ImagePair(1, 3), BridgeRole::kTree}};
+  auto with = [&](Roleset extra) {
+    extra.insert(tree.begin(), tree.end());
+    return extra;
+  };
+
+  // One backup per weak pair of communities, the heaviest left.
+  options.num_backup_bridges = 1;
+  EXPECT_EQ(Roles(BuildSkeleton(g, c, nullptr, options).bridges),
+            with({{ImagePair(2, 4), BridgeRole::kBackup},
+                  {ImagePair(2, 6), BridgeRole::kBackup}}));
+  // Two: A-B has two more bridges, A-C only one.
+  options.num_backup_bridges = 2;
+  EXPECT_EQ(Roles(BuildSkeleton(g, c, nullptr, options).bridges),
+            with({{ImagePair(2, 4), BridgeRole::kBackup},
+                  {ImagePair(2, 3), BridgeRole::kBackup},
+                  {ImagePair(2, 6), BridgeRole::kBackup}}));
+  // None asked for, or no weak link (both tree bridges reach 40 inliers).
+  options.num_backup_bridges = 0;
+  EXPECT_EQ(Roles(BuildSkeleton(g, c, nullptr, options).bridges), tree);
+  options.num_backup_bridges = 1;
+  options.weak_link_max_inliers = 40;
+  EXPECT_EQ(Roles(BuildSkeleton(g, c, nullptr, options).bridges), tree);
+
+  // Backups are verified: a rejected (2,4) gives way to (2,3).
+  options.weak_link_max_inliers = 50;
+  RecordingScorer scorer;
+  scorer.reject = {ImagePair(2, 4)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(Roles(s.bridges), with({{ImagePair(2, 3), BridgeRole::kBackup},
+                                    {ImagePair(2, 6), BridgeRole::kBackup}}));
+  EXPECT_EQ(Roles(s.rejected),
+            (Roleset{{ImagePair(2, 4), BridgeRole::kBackup}}));
+}
+
 TEST(Hierarchy, EveryLeafIsAttachedToItsScaffold) {
   for (uint32_t seed = 0; seed < 10; ++seed) {
     const ViewGraph g = ClusteredGraph(6, 8, 0.1, seed);

@@ -1,24 +1,8 @@
 #include "hisfm/graph/view_graph.h"
 
 #include <algorithm>
-#include <map>
-
-#include "hisfm/graph/union_find.h"
 
 namespace hisfm {
-
-ViewGraph ViewGraph::FromDatabase(const Database& database,
-                                  uint32_t min_num_matches) {
-  std::vector<ImageId> images;
-  for (const DatabaseImage& im : database.ReadImages()) {
-    images.push_back(im.image_id);
-  }
-  std::vector<ViewGraphEdge> edges;
-  for (const VerifiedPair& p : database.ReadVerifiedPairs(min_num_matches)) {
-    edges.push_back({p.pair, p.num_inliers});
-  }
-  return FromEdges(std::move(images), edges);
-}
 
 std::vector<ImagePair> ViewGraph::Pairs() const {
   std::vector<ImagePair> out;
@@ -77,24 +61,6 @@ uint32_t ViewGraph::Weight(ImageId a, ImageId b) const {
     if (OtherEnd(e, a) == b) return edges_[e].weight;
   }
   return 0;
-}
-
-std::vector<std::vector<ImageId>> ViewGraph::ConnectedComponents() const {
-  UnionFind uf(images_.size());
-  for (const ViewGraphEdge& e : edges_) {
-    uf.Union(index_.at(e.pair.image_id1), index_.at(e.pair.image_id2));
-  }
-  std::map<size_t, std::vector<ImageId>> groups;
-  for (size_t i = 0; i < images_.size(); ++i) {
-    groups[uf.Find(i)].push_back(images_[i]);
-  }
-  std::vector<std::vector<ImageId>> out;
-  for (auto& [root, members] : groups) out.push_back(std::move(members));
-  std::stable_sort(out.begin(), out.end(),
-                   [](const auto& a, const auto& b) {
-                     return a.size() > b.size();
-                   });
-  return out;
 }
 
 std::vector<size_t> StrongestEdges(const ViewGraph& graph, size_t index,

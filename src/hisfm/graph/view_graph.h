@@ -2,10 +2,10 @@
 // their number of inlier matches (w_ij in the HiSfM paper, Sec. III-A).
 #pragma once
 
+#include <cstdint>
 #include <unordered_map>
 #include <vector>
 
-#include "hisfm/io/database.h"
 #include "hisfm/util/types.h"
 
 namespace hisfm {
@@ -21,10 +21,6 @@ struct ViewGraphEdge {
 class ViewGraph {
  public:
   ViewGraph() = default;
-  /// Builds the graph from every image of the database and every verified pair
-  /// with at least `min_num_matches` inliers.
-  static ViewGraph FromDatabase(const Database& database,
-                                uint32_t min_num_matches);
   /// Builds a graph from explicit images and edges (duplicates are merged,
   /// keeping the largest weight; edges to unknown images are ignored).
   static ViewGraph FromEdges(std::vector<ImageId> images,
@@ -52,9 +48,6 @@ class ViewGraph {
   std::vector<ImagePair> Pairs() const;
   /// Weight of the edge between a and b, 0 if there is none.
   uint32_t Weight(ImageId a, ImageId b) const;
-  /// Connected components (each sorted), largest first; isolated images form
-  /// singleton components.
-  std::vector<std::vector<ImageId>> ConnectedComponents() const;
 
  private:
   void BuildAdjacency();

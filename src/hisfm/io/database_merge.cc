@@ -120,32 +120,28 @@ std::vector<SourceImage> ReadSourceImages(sqlite3* db,
   return out;
 }
 
-}  // namespace
+// The images of each shard, and the shard of each new image id.
+struct ShardImages {
+  std::vector<std::vector<SourceImage>> images;
+  // For each new image id (1-based; 0 unused): the shard that holds it.
+  std::vector<int> shard_of;
+};
 
-void MergeFeatureShards(const std::vector<std::string>& shard_paths,
-                        const std::vector<std::string>& image_names,
-                        const std::string& output_path,
-                        const FeatureShardMergeOptions& options) {
-  options.Check();
-  ThrowUnless(!shard_paths.empty(), "no feature shards to merge");
-  std::unordered_map<std::string, int64_t> new_id;
-  for (size_t i = 0; i < image_names.size(); ++i) {
-    ThrowUnless(new_id.emplace(image_names[i], static_cast<int64_t>(i + 1))
-                    .second,
-                StrCat("image ", image_names[i], " is listed twice"));
-  }
-  // For each new image id: the shard that holds it (to find missing ones).
-  std::vector<int> shard_of(image_names.size() + 1, -1);
-  // Camera ids in the order of the images using them: (shard, old id) ->
-  // new id, with the shard and old id of each new camera.
-  std::vector<std::vector<SourceImage>> shard_images(shard_paths.size());
-  TemporaryDatabase out(output_path);
-  sqlite3* db = out.get();
+// Reads the images of every shard; throws unless each listed image is in
+// exactly one shard and every shard image is listed.
+ShardImages ReadShardImages(
+    sqlite3* db, const std::vector<std::string>& shard_paths,
+    const std::vector<std::string>& image_names,
+    const std::unordered_map<std::string, int64_t>& new_id) {
+  ShardImages shards;
+  shards.images.resize(shard_paths.size());
+  shards.shard_of.assign(image_names.size() + 1, -1);
+  std::vector<int>& shard_of = shards.shard_of;
   for (size_t s = 0; s < shard_paths.size(); ++s) {
     Attach(db, shard_paths[s]);
-    shard_images[s] = ReadSourceImages(db, "src");
+    shards.images[s] = ReadSourceImages(db, "src");
     SqliteExec(db, "DETACH DATABASE src;");
-    for (const SourceImage& im : shard_images[s]) {
+    for (const SourceImage& im : shards.images[s]) {
       const auto it = new_id.find(im.name);
       ThrowUnless(it != new_id.end(),
                   StrCat("shard ", shard_paths[s], " holds image ", im.name,
@@ -163,29 +159,103 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
     ThrowUnless(shard_of[i + 1] >= 0,
                 StrCat("image ", image_names[i], " is in no feature shard"));
   }
-  // New camera ids in the order of the new image ids.
-  std::vector<std::unordered_map<int64_t, int64_t>> camera_map(
-      shard_paths.size());
-  std::vector<std::pair<int, int64_t>> new_cameras;  // (shard, old id)
+  return shards;
+}
+
+// The merged database's camera ids.
+struct CameraIds {
+  // Per shard: old camera id -> new camera id.
+  std::vector<std::unordered_map<int64_t, int64_t>> camera_map;
+  // (shard, old id) of each new camera, in new id order.
+  std::vector<std::pair<int, int64_t>> new_cameras;
+};
+
+// New camera ids in the order of the new image ids (all 1 with
+// options.single_camera).
+CameraIds NumberCameras(const ShardImages& shards, size_t num_images,
+                        const std::unordered_map<std::string, int64_t>& new_id,
+                        const FeatureShardMergeOptions& options) {
+  const size_t num_shards = shards.images.size();
+  CameraIds ids;
+  ids.camera_map.resize(num_shards);
   std::vector<std::unordered_map<int64_t, const SourceImage*>> by_new_id(
-      shard_paths.size());
-  for (size_t s = 0; s < shard_paths.size(); ++s) {
-    for (const SourceImage& im : shard_images[s]) {
+      num_shards);
+  for (size_t s = 0; s < num_shards; ++s) {
+    for (const SourceImage& im : shards.images[s]) {
       by_new_id[s][new_id.at(im.name)] = &im;
     }
   }
-  for (size_t i = 1; i <= image_names.size(); ++i) {
-    const int s = shard_of[i];
+  for (size_t i = 1; i <= num_images; ++i) {
+    const int s = shards.shard_of[i];
     const SourceImage& im = *by_new_id[s].at(static_cast<int64_t>(i));
-    auto& map = camera_map[s];
+    auto& map = ids.camera_map[s];
     if (map.count(im.camera_id)) continue;
-    if (options.single_camera && !new_cameras.empty()) {
+    if (options.single_camera && !ids.new_cameras.empty()) {
       map[im.camera_id] = 1;
       continue;
     }
-    new_cameras.emplace_back(s, im.camera_id);
-    map[im.camera_id] = static_cast<int64_t>(new_cameras.size());
+    ids.new_cameras.emplace_back(s, im.camera_id);
+    map[im.camera_id] = static_cast<int64_t>(ids.new_cameras.size());
   }
+  return ids;
+}
+
+// Fills the temporary tables map_image and map_camera for shard `s`.
+void FillIdMaps(sqlite3* db, size_t s, const std::vector<SourceImage>& images,
+                const std::unordered_map<std::string, int64_t>& new_id,
+                const CameraIds& cameras) {
+  SqliteStatement insert(db, "INSERT INTO map_image VALUES (?, ?, ?)");
+  for (const SourceImage& im : images) {
+    sqlite3_bind_int64(insert.get(), 1, im.image_id);
+    sqlite3_bind_int64(insert.get(), 2, new_id.at(im.name));
+    sqlite3_bind_int64(insert.get(), 3,
+                       cameras.camera_map[s].at(im.camera_id));
+    insert.Step();
+    insert.Reset();
+  }
+  SqliteStatement camera(db, "INSERT INTO map_camera VALUES (?, ?)");
+  for (size_t c = 0; c < cameras.new_cameras.size(); ++c) {
+    if (cameras.new_cameras[c].first != static_cast<int>(s)) continue;
+    sqlite3_bind_int64(camera.get(), 1, cameras.new_cameras[c].second);
+    sqlite3_bind_int64(camera.get(), 2, static_cast<int64_t>(c + 1));
+    camera.Step();
+    camera.Reset();
+  }
+}
+
+// Throws naming the first image of the merged database without keypoints.
+void CheckEveryImageHasKeypoints(sqlite3* db) {
+  SqliteStatement missing(
+      db,
+      "SELECT name FROM images WHERE image_id NOT IN (SELECT image_id FROM "
+      "keypoints) ORDER BY image_id LIMIT 1");
+  if (missing.Step()) {
+    throw Error(StrCat(
+        "image ",
+        reinterpret_cast<const char*>(sqlite3_column_text(missing.get(), 0)),
+        " has no keypoints in its feature shard"));
+  }
+}
+
+}  // namespace
+
+void MergeFeatureShards(const std::vector<std::string>& shard_paths,
+                        const std::vector<std::string>& image_names,
+                        const std::string& output_path,
+                        const FeatureShardMergeOptions& options) {
+  options.Check();
+  ThrowUnless(!shard_paths.empty(), "no feature shards to merge");
+  std::unordered_map<std::string, int64_t> new_id;
+  for (size_t i = 0; i < image_names.size(); ++i) {
+    ThrowUnless(new_id.emplace(image_names[i], static_cast<int64_t>(i + 1))
+                    .second,
+                StrCat("image ", image_names[i], " is listed twice"));
+  }
+  TemporaryDatabase out(output_path);
+  sqlite3* db = out.get();
+  ShardImages shards = ReadShardImages(db, shard_paths, image_names, new_id);
+  const CameraIds cameras =
+      NumberCameras(shards, image_names.size(), new_id, options);
 
   SqliteExec(db,
              "CREATE TEMP TABLE map_image (old INTEGER PRIMARY KEY, new "
@@ -197,24 +267,7 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
     Attach(db, shard_paths[s]);
     SqliteExec(db, "BEGIN;");
     SqliteExec(db, "DELETE FROM map_image; DELETE FROM map_camera;");
-    {
-      SqliteStatement insert(db, "INSERT INTO map_image VALUES (?, ?, ?)");
-      for (const SourceImage& im : shard_images[s]) {
-        sqlite3_bind_int64(insert.get(), 1, im.image_id);
-        sqlite3_bind_int64(insert.get(), 2, new_id.at(im.name));
-        sqlite3_bind_int64(insert.get(), 3, camera_map[s].at(im.camera_id));
-        insert.Step();
-        insert.Reset();
-      }
-      SqliteStatement camera(db, "INSERT INTO map_camera VALUES (?, ?)");
-      for (size_t c = 0; c < new_cameras.size(); ++c) {
-        if (new_cameras[c].first != static_cast<int>(s)) continue;
-        sqlite3_bind_int64(camera.get(), 1, new_cameras[c].second);
-        sqlite3_bind_int64(camera.get(), 2, static_cast<int64_t>(c + 1));
-        camera.Step();
-        camera.Reset();
-      }
-    }
+    FillIdMaps(db, s, shards.images[s], new_id, cameras);
     const std::string camera_columns =
         CommonColumns(db, "cameras", "camera_id", "c.");
     SqliteExec(db, StrCat("INSERT INTO main.cameras (camera_id",
@@ -255,18 +308,7 @@ void MergeFeatureShards(const std::vector<std::string>& shard_paths,
     SqliteExec(db, "COMMIT;");
     SqliteExec(db, "DETACH DATABASE src;");
   }
-  {
-    SqliteStatement missing(
-        db,
-        "SELECT name FROM images WHERE image_id NOT IN (SELECT image_id FROM "
-        "keypoints) ORDER BY image_id LIMIT 1");
-    if (missing.Step()) {
-      throw Error(StrCat(
-          "image ",
-          reinterpret_cast<const char*>(sqlite3_column_text(missing.get(), 0)),
-          " has no keypoints in its feature shard"));
-    }
-  }
+  CheckEveryImageHasKeypoints(db);
   out.Commit();
 }
 

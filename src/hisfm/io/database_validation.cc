@@ -30,7 +30,7 @@ std::string FormatDatabaseProblem(const DatabaseProblem& problem) {
 }
 
 void DatabaseValidationOptions::Check() const {
-  HISFM_CHECK_OPTION(max_problems >= 0);
+  HISFM_CHECK_OPTION(max_problems, max_problems >= 0, ">= 0");
 }
 
 namespace {

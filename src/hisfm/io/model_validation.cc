@@ -13,7 +13,7 @@ std::string FormatModelProblem(const ModelProblem& problem) {
 }
 
 void ModelValidationOptions::Check() const {
-  HISFM_CHECK_OPTION(max_problems >= 0);
+  HISFM_CHECK_OPTION(max_problems, max_problems >= 0, ">= 0");
 }
 
 namespace {

@@ -88,6 +88,7 @@ py::dict ViewGraphFunction(const py::object& database_path, const py::kwargs& kw
   AddHierarchicalMapperFlags(app, &options);
   AddLogLevelFlag(app, &log_level);
   ParseKeywords(app, KeywordArguments(kwargs));
+  CheckMapperOptions(options);
   const std::string database = PathText("database_path", database_path);
   nlohmann::json view_graph;
   {
@@ -130,7 +131,7 @@ py::dict MapperFunction(const py::object& database_path, const py::object& image
     }
   }
   options.mapper_args = TakeMapperPassThrough(pass_through);
-  CheckMapperOptions(app, options);
+  CheckMapperOptions(options);
   paths.options_record = OptionsRecord(app, options.mapper_args);
   nlohmann::json summary;
   {
@@ -148,9 +149,10 @@ py::dict EvaluateFunction(const py::object& model_path, const py::object& refere
                   const py::kwargs& kwargs) {
   CLI::App app("hisfm.evaluate");
   PoseEvaluationOptions options;
-  AddPoseEvaluationFlags(app, &options);
+  OptionFlagMap flags;
+  AddPoseEvaluationFlags(app, &options, &flags);
   ParseKeywords(app, KeywordArguments(kwargs));
-  options.Check();
+  CheckOptionFlags(flags, [&] { options.Check(); });
   const std::string model = PathText("model_path", model_path);
   const std::string reference_folder =
       PathText("reference_path", reference_path);

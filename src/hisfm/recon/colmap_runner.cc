@@ -17,7 +17,7 @@
 namespace hisfm {
 
 void ColmapRunnerOptions::Check() const {
-  HISFM_CHECK_OPTION(!colmap_path.empty());
+  HISFM_CHECK_OPTION(colmap_path, !colmap_path.empty(), "non-empty");
 }
 
 namespace {

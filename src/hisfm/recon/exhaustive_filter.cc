@@ -11,13 +11,16 @@
 #include "hisfm/util/file_util.h"
 #include "hisfm/util/logging.h"
 #include "hisfm/util/timer.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 
 void ExhaustiveFilterOptions::Check() const {
-  HISFM_CHECK_OPTION(min_num_matches >= 1);
-  HISFM_CHECK_OPTION(verify_threshold >= 0.0 && verify_threshold <= 1.0);
-  HISFM_CHECK_OPTION(batch_size >= 1);
+  HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
+  HISFM_CHECK_OPTION(verify_threshold,
+                     verify_threshold >= 0.0 && verify_threshold <= 1.0,
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(batch_size, batch_size >= 1, ">= 1");
   communities.Check();
   verifier.Check();
 }
@@ -34,7 +37,7 @@ nlohmann::json FilterPairsExhaustively(const std::string& database_path,
   RequireValidDatabase(database_path);
   const Database database(database_path);
   const ViewGraph graph =
-      ViewGraph::FromDatabase(database, options.min_num_matches);
+      ReadViewGraph(database, options.min_num_matches);
   ThrowUnless(graph.NumEdges() > 0,
               StrCat("database has no verified image pairs: ", database_path));
   const std::vector<DatabaseImage> images = database.ReadImages();

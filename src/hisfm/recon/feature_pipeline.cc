@@ -322,18 +322,26 @@ CameraMode ResolveCameraMode(CameraMode mode,
 }
 
 void FeaturePipelineOptions::Check() const {
-  HISFM_CHECK_OPTION(matcher == "exhaustive" || matcher == "sequential" ||
-                     matcher == "vocab_tree");
-  HISFM_CHECK_OPTION(num_neighbors >= 1);
-  HISFM_CHECK_OPTION(vocab_tree_num_words == 0 || vocab_tree_num_words >= 16);
-  HISFM_CHECK_OPTION(executor == "local" || executor == "slurm");
-  HISFM_CHECK_OPTION(shard_size >= 0);
-  HISFM_CHECK_OPTION(block_group_size >= 0);
+  HISFM_CHECK_OPTION(matcher,
+                     matcher == "exhaustive" || matcher == "sequential" ||
+                     matcher == "vocab_tree",
+                     "one of exhaustive, sequential, vocab_tree");
+  HISFM_CHECK_OPTION(num_neighbors, num_neighbors >= 1, ">= 1");
+  HISFM_CHECK_OPTION(vocab_tree_num_words,
+                     vocab_tree_num_words == 0 || vocab_tree_num_words >= 16,
+                     "0 or >= 16");
+  HISFM_CHECK_OPTION(executor, executor == "local" || executor == "slurm",
+                     "one of local, slurm");
+  HISFM_CHECK_OPTION(shard_size, shard_size >= 0, ">= 0");
+  HISFM_CHECK_OPTION(block_group_size, block_group_size >= 0, ">= 0");
   if (executor == "slurm") slurm.Check();
   ParseCameraMode(camera_mode);
-  HISFM_CHECK_OPTION(!camera_model.empty());
-  HISFM_CHECK_OPTION(num_threads == -1 || num_threads >= 1);
-  HISFM_CHECK_OPTION(exhaustive_block_size == 0 || exhaustive_block_size >= 2);
+  HISFM_CHECK_OPTION(camera_model, !camera_model.empty(), "non-empty");
+  HISFM_CHECK_OPTION(num_threads,
+                     num_threads == -1 || num_threads >= 1, "-1 or >= 1");
+  HISFM_CHECK_OPTION(exhaustive_block_size,
+                     exhaustive_block_size == 0 || exhaustive_block_size >= 2,
+                     "0 or >= 2");
   colmap.Check();
 }
 
@@ -740,32 +748,33 @@ std::vector<std::string> SiftMatchingArgs(
   return out;
 }
 
-}  // namespace
+// What the stages of one pipeline run share.
+struct PipelineRun {
+  const FeaturePipelineOptions& options;
+  // The workspace and the image folder, absolute.
+  std::string ws;
+  std::string images_abs;
+  // The image list (workspace/image_list.txt) and the database.
+  std::string list_path;
+  std::string database;
+  StageLedger* ledger = nullptr;
+  FeaturePipelineResult* result = nullptr;
 
-FeaturePipelineResult RunFeaturePipeline(
-    const std::string& image_path, const std::string& workspace_path,
-    const FeaturePipelineOptions& options) {
-  options.Check();
-  FeaturePipelineResult result;
-  result.scan = ScanImageFolder(image_path);
-  const ImageFolderScan& scan = result.scan;
-  const std::string colmap_version = CheckColmapAvailable(options.colmap);
+  bool OnSlurm() const { return options.executor == "slurm"; }
+};
 
-  std::error_code ec;
-  fs::create_directories(workspace_path + "/logs", ec);
-  ThrowUnless(!ec, StrCat("cannot create workspace ", workspace_path, ": ",
-                          ec.message()));
-  const std::string ws = fs::absolute(workspace_path).lexically_normal();
-  const std::string images_abs = fs::absolute(image_path).lexically_normal();
-
-  // Skipped files (the workspace itself may sit inside the image folder).
+// Keeps the scan's skipped files outside the workspace (which may sit
+// inside the image folder), lists them in skipped_images.txt and warns
+// about them.
+std::vector<SkippedImageFile> RecordSkippedFiles(
+    const std::vector<SkippedImageFile>& scanned, const std::string& ws,
+    const std::string& images_abs) {
   std::vector<SkippedImageFile> skipped;
-  for (const SkippedImageFile& s : scan.skipped) {
+  for (const SkippedImageFile& s : scanned) {
     const std::string full =
         (fs::path(images_abs) / s.name).lexically_normal().string();
     if (full.rfind(ws + "/", 0) != 0) skipped.push_back(s);
   }
-  result.scan.skipped = skipped;
   {
     std::string text;
     for (const SkippedImageFile& s : skipped) {
@@ -783,163 +792,354 @@ FeaturePipelineResult RunFeaturePipeline(
     HISFM_LOG_WARN("skipping {} file(s) that are not readable images: {}",
                    skipped.size(), list);
   }
-  result.camera_mode =
-      ResolveCameraMode(ParseCameraMode(options.camera_mode), scan.images);
-  HISFM_LOG_INFO("{}: {} readable image(s), camera mode '{}'", image_path,
-                 scan.images.size(), CameraModeName(result.camera_mode));
+  return skipped;
+}
 
+// Writes the image list (`list_path`, rewritten only when it changes) and
+// returns the images' record for the features' fingerprint: the folder,
+// then name, size, time and dimensions of each image.
+std::string WriteImageList(const std::vector<ImageFileInfo>& images,
+                           const std::string& images_abs,
+                           const std::string& list_path) {
   std::string list_text;
   std::ostringstream images_record;
   images_record << images_abs << '\n';
-  for (const ImageFileInfo& im : scan.images) {
+  for (const ImageFileInfo& im : images) {
     list_text += im.name + "\n";
     images_record << im.name << '\t' << im.file_size << '\t' << im.mtime_ns
                   << '\t' << im.width << 'x' << im.height << '\n';
   }
-  const std::string list_path = ws + "/image_list.txt";
   if (!fs::exists(list_path) || ReadTextFile(list_path) != list_text) {
     WriteFileAtomically(list_path, list_text);
   }
+  return images_record.str();
+}
 
-  StageLedger ledger(ws + "/stages.json");
-  const std::string database = ws + "/database.db";
-  result.database_path = database;
+// Stage: feature extraction into a new database, on Slurm or with colmap
+// feature_extractor, unless the ledger holds it with `features_fp`.
+void ExtractFeatures(const PipelineRun& run, const std::string& features_fp,
+                     const std::vector<std::string>& image_names) {
+  const FeaturePipelineOptions& options = run.options;
+  FeaturePipelineResult& result = *run.result;
+  StageLedger& ledger = *run.ledger;
+  const std::string& ws = run.ws;
+  const std::string& database = run.database;
+  const bool on_slurm = run.OnSlurm();
+  if (ledger.IsDone("features", features_fp) && fs::exists(database)) {
+    result.extraction_skipped = true;
+    HISFM_LOG_INFO("features: unchanged since the last run, skipped");
+    return;
+  }
+  ledger.Invalidate("matching");
+  ledger.Invalidate("vocab_tree");
+  ledger.Invalidate("features");
+  const std::string tmp = ws + "/database.features.tmp.db";
+  RemoveDatabaseFiles(tmp);
+  Timer timer;
+  if (on_slurm) {
+    SlurmExtractionJob job;
+    job.image_path = run.images_abs;
+    job.image_names = image_names;
+    job.shard_size = options.shard_size > 0
+                         ? static_cast<size_t>(options.shard_size)
+                         : PieceSize(image_names.size(), 8);
+    job.single_camera = result.camera_mode == CameraMode::kSingle;
+    job.camera_model = options.camera_model;
+    job.extractor_args = options.extractor_args;
+    job.fingerprint = features_fp;
+    result.feature_shards = ExtractFeaturesOnSlurm(
+        job, options.colmap, options.slurm, ws + "/slurm/features", tmp);
+    result.extraction_seconds = timer.ElapsedSeconds();
+  } else {
+    LogHeading(StrCat("Extracting features of ", image_names.size(),
+                      " image(s) (colmap feature_extractor, CPU)"));
+    std::vector<std::string> args = {
+        "feature_extractor",        "--database_path",
+        tmp,                        "--image_path",
+        run.images_abs,             "--image_list_path",
+        run.list_path,              "--SiftExtraction.use_gpu",
+        "0",                        "--SiftExtraction.num_threads",
+        std::to_string(options.num_threads),
+        "--ImageReader.camera_model", options.camera_model};
+    if (result.camera_mode == CameraMode::kSingle) {
+      args.insert(args.end(), {"--ImageReader.single_camera", "1"});
+    } else {
+      args.insert(args.end(), {"--ImageReader.single_camera_per_image", "1"});
+    }
+    args.insert(args.end(), options.extractor_args.begin(),
+                options.extractor_args.end());
+    result.extraction_seconds = RunColmapWithProgress(
+        options.colmap, args, ws + "/logs/feature_extractor.log",
+        "Extracting features", image_names.size(), ParseExtractionProgress);
+  }
+  size_t num_in_db = 0;
+  {
+    Database db(tmp);
+    num_in_db = db.ReadImages().size();
+  }
+  ThrowUnless(num_in_db > 0,
+              StrCat("colmap extracted no features; see ", ws,
+                     on_slurm ? "/slurm/features/task_*.log"
+                              : "/logs/feature_extractor.log"));
+  if (num_in_db < image_names.size()) {
+    HISFM_LOG_WARN("colmap read {} of {} images; see {}", num_in_db,
+                   image_names.size(), ws + "/logs/feature_extractor.log");
+  }
+  RemoveDatabaseFiles(database);
+  std::error_code ec;
+  fs::rename(tmp, database, ec);
+  ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
+  ledger.MarkDone("features", features_fp, result.extraction_seconds, {},
+                  {{"images", num_in_db},
+                   {"camera_mode", CameraModeName(result.camera_mode)},
+                   {"executor", options.executor}});
+}
 
-  // Stage: feature extraction.
-  const bool on_slurm = options.executor == "slurm";
+// Stage: the vocabulary tree (retrieval only): the user's, or one built
+// from the collection's descriptors and kept while they are unchanged.
+// Returns the tree's fingerprint ("" without retrieval).
+std::string PrepareVocabTree(const PipelineRun& run,
+                             const std::string& features_fp,
+                             size_t num_images) {
+  const FeaturePipelineOptions& options = run.options;
+  FeaturePipelineResult& result = *run.result;
+  StageLedger& ledger = *run.ledger;
+  const std::string& ws = run.ws;
+  std::string tree_fp;
+  if (options.matcher != "vocab_tree") return tree_fp;
+  if (!options.vocab_tree_path.empty()) {
+    CheckFileReadable(options.vocab_tree_path, "vocabulary tree");
+    result.vocab_tree_path =
+        fs::absolute(options.vocab_tree_path).lexically_normal();
+    return TextFingerprint(StrCat("given tree\n", result.vocab_tree_path, "\n",
+                                  FileStamp(result.vocab_tree_path)));
+  }
+  result.vocab_tree_path = ws + "/vocab_tree.bin";
+  const int words = VocabTreeBuildWords(options, num_images);
+  const int branching = VocabTreeBuildBranching(words);
+  tree_fp = TextFingerprint(StrCat("vocab_tree v1\n", features_fp, "\n", words,
+                                   "\n", branching));
+  if (ledger.IsDone("vocab_tree", tree_fp)) {
+    HISFM_LOG_INFO("vocabulary tree: unchanged since the last run, reused");
+  } else {
+    ledger.Invalidate("vocab_tree");
+    LogHeading(StrCat("Building a vocabulary tree of ", words,
+                      " visual words from the descriptors of ", num_images,
+                      " image(s) (colmap vocab_tree_builder)"));
+    const std::string tmp = ws + "/vocab_tree.tmp.bin";
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    // colmap aborts if asked to sample more images than it has.
+    size_t num_db_images = 0;
+    {
+      Database db(run.database);
+      num_db_images = db.ReadImages().size();
+    }
+    Timer timer;
+    RunColmap(options.colmap,
+              {"vocab_tree_builder", "--database_path", run.database,
+               "--vocab_tree_path", tmp, "--num_visual_words",
+               std::to_string(words), "--branching",
+               std::to_string(branching), "--num_iterations", "5",
+               "--max_num_images",
+               std::to_string(VocabTreeBuildImages(
+                   num_db_images, MeanDescriptors(run.database)))},
+              ws + "/logs/vocab_tree_builder.log");
+    const double seconds = timer.ElapsedSeconds();
+    fs::rename(tmp, result.vocab_tree_path, ec);
+    ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
+    HISFM_LOG_INFO("vocabulary tree built in {:.1f} s: {}", seconds,
+                   result.vocab_tree_path);
+    ledger.MarkDone("vocab_tree", tree_fp, seconds, {result.vocab_tree_path},
+                    {{"words", words}});
+    result.vocab_tree_built = true;
+  }
+  result.recorded_vocab_tree_seconds = ledger.Seconds("vocab_tree");
+  return tree_fp;
+}
+
+// The Slurm matching job of `db_names`' images: blocks of pairs
+// (exhaustive, sequential) or shards of query images (vocab_tree).
+SlurmMatchingJob SlurmMatchingJobFor(const PipelineRun& run,
+                                     const std::vector<std::string>& db_names,
+                                     const std::string& features_only,
+                                     const std::string& matching_fp) {
+  const FeaturePipelineOptions& options = run.options;
+  const size_t num_images = db_names.size();
+  SlurmMatchingJob job;
+  job.features_path = features_only;
+  job.image_names = db_names;
+  const size_t group = options.block_group_size > 0
+                           ? static_cast<size_t>(options.block_group_size)
+                           : PieceSize(num_images, 4);
+  if (options.matcher == "exhaustive") {
+    job.pair_blocks = ExhaustivePairBlocks(num_images, group);
+  } else if (options.matcher == "sequential") {
+    const SequentialMatchingFlags flags =
+        ReadSequentialMatchingFlags(options.matcher_args);
+    job.pair_blocks =
+        CutPairs(SequentialPairs(num_images, flags.overlap, flags.quadratic),
+                 group * group);
+  } else {
+    const size_t shard = options.shard_size > 0
+                             ? static_cast<size_t>(options.shard_size)
+                             : PieceSize(num_images, 8);
+    for (size_t start = 0; start < num_images; start += shard) {
+      std::vector<size_t> queries;
+      for (size_t i = start; i < std::min(num_images, start + shard); ++i) {
+        queries.push_back(i);
+      }
+      job.query_shards.push_back(std::move(queries));
+    }
+    job.vocab_tree_path = run.result->vocab_tree_path;
+    job.num_neighbors = options.num_neighbors;
+  }
+  job.matcher_args = SiftMatchingArgs(options.matcher_args);
+  job.fingerprint = matching_fp;
+  return job;
+}
+
+// Matches the features of `tmp` (a copy of the database without matches)
+// with colmap's matcher on this machine; returns the seconds it took.
+double MatchLocally(const PipelineRun& run, const std::string& tmp,
+                    size_t num_images) {
+  const FeaturePipelineOptions& options = run.options;
+  const std::string log = run.ws + "/logs/" + options.matcher + "_matcher.log";
+  std::vector<std::string> args = {
+      options.matcher + "_matcher", "--database_path",        tmp,
+      "--SiftMatching.use_gpu",     "0",
+      "--SiftMatching.num_threads", std::to_string(options.num_threads)};
+  size_t total = num_images;
+  ProgressLineParser parser = ParseSequentialProgress;
+  if (options.matcher == "exhaustive") {
+    const int block = ExhaustiveBlockSize(options, num_images);
+    args.insert(args.end(),
+                {"--ExhaustiveMatching.block_size", std::to_string(block)});
+    const size_t blocks = (num_images + block - 1) / block;
+    total = blocks * blocks;
+    parser = ParseExhaustiveProgress;
+  } else if (options.matcher == "vocab_tree") {
+    args.insert(args.end(), {"--VocabTreeMatching.vocab_tree_path",
+                             run.result->vocab_tree_path,
+                             "--VocabTreeMatching.num_images",
+                             std::to_string(options.num_neighbors)});
+  }
+  args.insert(args.end(), options.matcher_args.begin(),
+              options.matcher_args.end());
+  LogHeading(StrCat("Matching ", num_images, " image(s) (colmap ",
+                    options.matcher, "_matcher, CPU)"));
+  return RunColmapWithProgress(options.colmap, args, log,
+                               options.matcher == "exhaustive"
+                                   ? "Matching image blocks"
+                                   : "Matching images",
+                               total, parser);
+}
+
+// Stage: matching and geometric verification, on Slurm or on this machine,
+// unless the ledger holds it with `matching_fp`.
+void MatchFeatures(const PipelineRun& run, const std::string& matching_fp) {
+  const FeaturePipelineOptions& options = run.options;
+  FeaturePipelineResult& result = *run.result;
+  StageLedger& ledger = *run.ledger;
+  const std::string& database = run.database;
+  if (ledger.IsDone("matching", matching_fp)) {
+    result.matching_skipped = true;
+    HISFM_LOG_INFO("matching: unchanged since the last run, skipped");
+    return;
+  }
+  ledger.Invalidate("matching");
+  std::vector<std::string> db_names;
+  {
+    Database db(database);
+    for (const DatabaseImage& im : db.ReadImages()) {
+      db_names.push_back(im.name);
+    }
+  }
+  const size_t num_images = db_names.size();
+  const std::string tmp = run.ws + "/database.matching.tmp.db";
+  RemoveDatabaseFiles(tmp);
+  std::error_code ec;
+  if (run.OnSlurm()) {
+    const std::string dir = run.ws + "/slurm/matching";
+    fs::create_directories(dir, ec);
+    const std::string features_only = dir + "/features.db";
+    RemoveDatabaseFiles(features_only);
+    fs::copy_file(database, features_only, ec);
+    ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
+    ClearMatches(features_only);
+    const SlurmMatchingJob job =
+        SlurmMatchingJobFor(run, db_names, features_only, matching_fp);
+    Timer timer;
+    result.matching_blocks =
+        MatchOnSlurm(job, options.colmap, options.slurm, dir, tmp);
+    result.matching_seconds = timer.ElapsedSeconds();
+  } else {
+    fs::copy_file(database, tmp, ec);
+    ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
+    ClearMatches(tmp);
+    result.matching_seconds = MatchLocally(run, tmp, num_images);
+  }
+  size_t num_pairs = 0;
+  {
+    Database db(tmp);
+    num_pairs = db.NumVerifiedPairs(1);
+  }
+  HISFM_LOG_INFO("{} verified image pair(s) ({:.1f} s)", num_pairs,
+                 result.matching_seconds);
+  fs::rename(tmp, database, ec);
+  ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
+  ledger.MarkDone("matching", matching_fp, result.matching_seconds, {database},
+                  {{"matcher", options.matcher},
+                   {"executor", options.executor},
+                   {"verified_pairs", num_pairs}});
+}
+
+}  // namespace
+
+FeaturePipelineResult RunFeaturePipeline(
+    const std::string& image_path, const std::string& workspace_path,
+    const FeaturePipelineOptions& options) {
+  options.Check();
+  FeaturePipelineResult result;
+  result.scan = ScanImageFolder(image_path);
+  const ImageFolderScan& scan = result.scan;
+  const std::string colmap_version = CheckColmapAvailable(options.colmap);
+
+  std::error_code ec;
+  fs::create_directories(workspace_path + "/logs", ec);
+  ThrowUnless(!ec, StrCat("cannot create workspace ", workspace_path, ": ",
+                          ec.message()));
+  PipelineRun run{options};
+  run.ws = fs::absolute(workspace_path).lexically_normal();
+  run.images_abs = fs::absolute(image_path).lexically_normal();
+  run.list_path = run.ws + "/image_list.txt";
+  run.database = run.ws + "/database.db";
+  run.result = &result;
+
+  result.scan.skipped = RecordSkippedFiles(scan.skipped, run.ws,
+                                           run.images_abs);
+  result.camera_mode =
+      ResolveCameraMode(ParseCameraMode(options.camera_mode), scan.images);
+  HISFM_LOG_INFO("{}: {} readable image(s), camera mode '{}'", image_path,
+                 scan.images.size(), CameraModeName(result.camera_mode));
+  const std::string images_record =
+      WriteImageList(scan.images, run.images_abs, run.list_path);
+  StageLedger ledger(run.ws + "/stages.json");
+  run.ledger = &ledger;
+  result.database_path = run.database;
+
   const std::string features_fp = TextFingerprint(StrCat(
-      "features v1\n", colmap_version, "\n", images_record.str(),
+      "features v1\n", colmap_version, "\n", images_record,
       CameraModeName(result.camera_mode), "\n", options.camera_model, "\n",
       JoinArgs(options.extractor_args)));
   std::vector<std::string> image_names;
   for (const ImageFileInfo& im : scan.images) image_names.push_back(im.name);
-  if (ledger.IsDone("features", features_fp) && fs::exists(database)) {
-    result.extraction_skipped = true;
-    HISFM_LOG_INFO("features: unchanged since the last run, skipped");
-  } else {
-    ledger.Invalidate("matching");
-    ledger.Invalidate("vocab_tree");
-    ledger.Invalidate("features");
-    const std::string tmp = ws + "/database.features.tmp.db";
-    RemoveDatabaseFiles(tmp);
-    Timer timer;
-    if (on_slurm) {
-      SlurmExtractionJob job;
-      job.image_path = images_abs;
-      job.image_names = image_names;
-      job.shard_size = options.shard_size > 0
-                           ? static_cast<size_t>(options.shard_size)
-                           : PieceSize(image_names.size(), 8);
-      job.single_camera = result.camera_mode == CameraMode::kSingle;
-      job.camera_model = options.camera_model;
-      job.extractor_args = options.extractor_args;
-      job.fingerprint = features_fp;
-      result.feature_shards = ExtractFeaturesOnSlurm(
-          job, options.colmap, options.slurm, ws + "/slurm/features", tmp);
-      result.extraction_seconds = timer.ElapsedSeconds();
-    } else {
-      LogHeading(StrCat("Extracting features of ", scan.images.size(),
-                        " image(s) (colmap feature_extractor, CPU)"));
-      std::vector<std::string> args = {
-          "feature_extractor",        "--database_path",
-          tmp,                        "--image_path",
-          images_abs,                 "--image_list_path",
-          list_path,                  "--SiftExtraction.use_gpu",
-          "0",                        "--SiftExtraction.num_threads",
-          std::to_string(options.num_threads),
-          "--ImageReader.camera_model", options.camera_model};
-      if (result.camera_mode == CameraMode::kSingle) {
-        args.insert(args.end(), {"--ImageReader.single_camera", "1"});
-      } else {
-        args.insert(args.end(),
-                    {"--ImageReader.single_camera_per_image", "1"});
-      }
-      args.insert(args.end(), options.extractor_args.begin(),
-                  options.extractor_args.end());
-      result.extraction_seconds = RunColmapWithProgress(
-          options.colmap, args, ws + "/logs/feature_extractor.log",
-          "Extracting features", scan.images.size(), ParseExtractionProgress);
-    }
-    size_t num_in_db = 0;
-    {
-      Database db(tmp);
-      num_in_db = db.ReadImages().size();
-    }
-    ThrowUnless(num_in_db > 0,
-                StrCat("colmap extracted no features; see ", ws,
-                       on_slurm ? "/slurm/features/task_*.log"
-                                : "/logs/feature_extractor.log"));
-    if (num_in_db < scan.images.size()) {
-      HISFM_LOG_WARN("colmap read {} of {} images; see {}", num_in_db,
-                     scan.images.size(), ws + "/logs/feature_extractor.log");
-    }
-    RemoveDatabaseFiles(database);
-    fs::rename(tmp, database, ec);
-    ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
-    ledger.MarkDone("features", features_fp, result.extraction_seconds, {},
-                    {{"images", num_in_db},
-                     {"camera_mode", CameraModeName(result.camera_mode)},
-                     {"executor", options.executor}});
-  }
+  ExtractFeatures(run, features_fp, image_names);
   result.recorded_extraction_seconds = ledger.Seconds("features");
 
-  // Stage: the vocabulary tree (retrieval only): the user's, or one built
-  // from the collection's descriptors and kept while they are unchanged.
-  std::string tree_fp;
-  if (options.matcher == "vocab_tree") {
-    if (!options.vocab_tree_path.empty()) {
-      CheckFileReadable(options.vocab_tree_path, "vocabulary tree");
-      result.vocab_tree_path =
-          fs::absolute(options.vocab_tree_path).lexically_normal();
-      tree_fp = TextFingerprint(StrCat("given tree\n", result.vocab_tree_path,
-                                       "\n", FileStamp(result.vocab_tree_path)));
-    } else {
-      result.vocab_tree_path = ws + "/vocab_tree.bin";
-      const int words = VocabTreeBuildWords(options, image_names.size());
-      const int branching = VocabTreeBuildBranching(words);
-      tree_fp = TextFingerprint(StrCat("vocab_tree v1\n", features_fp, "\n",
-                                       words, "\n", branching));
-      if (ledger.IsDone("vocab_tree", tree_fp)) {
-        HISFM_LOG_INFO("vocabulary tree: unchanged since the last run, "
-                       "reused");
-      } else {
-        ledger.Invalidate("vocab_tree");
-        LogHeading(StrCat("Building a vocabulary tree of ", words,
-                          " visual words from the descriptors of ",
-                          image_names.size(),
-                          " image(s) (colmap vocab_tree_builder)"));
-        const std::string tmp = ws + "/vocab_tree.tmp.bin";
-        fs::remove(tmp, ec);
-        // colmap aborts if asked to sample more images than it has.
-        size_t num_db_images = 0;
-        {
-          Database db(database);
-          num_db_images = db.ReadImages().size();
-        }
-        Timer timer;
-        RunColmap(options.colmap,
-                  {"vocab_tree_builder", "--database_path", database,
-                   "--vocab_tree_path", tmp, "--num_visual_words",
-                   std::to_string(words), "--branching",
-                   std::to_string(branching), "--num_iterations", "5",
-                   "--max_num_images",
-                   std::to_string(VocabTreeBuildImages(
-                       num_db_images, MeanDescriptors(database)))},
-                  ws + "/logs/vocab_tree_builder.log");
-        const double seconds = timer.ElapsedSeconds();
-        fs::rename(tmp, result.vocab_tree_path, ec);
-        ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
-        HISFM_LOG_INFO("vocabulary tree built in {:.1f} s: {}", seconds,
-                       result.vocab_tree_path);
-        ledger.MarkDone("vocab_tree", tree_fp, seconds,
-                        {result.vocab_tree_path}, {{"words", words}});
-        result.vocab_tree_built = true;
-      }
-      result.recorded_vocab_tree_seconds = ledger.Seconds("vocab_tree");
-    }
-  }
+  const std::string tree_fp =
+      PrepareVocabTree(run, features_fp, image_names.size());
 
-  // Stage: matching.
   std::string matcher_key = options.matcher;
   if (options.matcher == "vocab_tree") {
     matcher_key += StrCat(" ", tree_fp, " ", options.num_neighbors);
@@ -948,114 +1148,7 @@ FeaturePipelineResult RunFeaturePipeline(
       StrCat("matching v1\n", features_fp, "\n", matcher_key, "\n",
              JoinArgs(options.matcher_args)));
   result.fingerprint = matching_fp;
-  if (ledger.IsDone("matching", matching_fp)) {
-    result.matching_skipped = true;
-    HISFM_LOG_INFO("matching: unchanged since the last run, skipped");
-  } else {
-    ledger.Invalidate("matching");
-    std::vector<std::string> db_names;
-    {
-      Database db(database);
-      for (const DatabaseImage& im : db.ReadImages()) {
-        db_names.push_back(im.name);
-      }
-    }
-    const size_t num_images = db_names.size();
-    const std::string tmp = ws + "/database.matching.tmp.db";
-    RemoveDatabaseFiles(tmp);
-    if (on_slurm) {
-      const std::string dir = ws + "/slurm/matching";
-      fs::create_directories(dir, ec);
-      const std::string features_only = dir + "/features.db";
-      RemoveDatabaseFiles(features_only);
-      fs::copy_file(database, features_only, ec);
-      ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
-      ClearMatches(features_only);
-      SlurmMatchingJob job;
-      job.features_path = features_only;
-      job.image_names = db_names;
-      const size_t group =
-          options.block_group_size > 0
-              ? static_cast<size_t>(options.block_group_size)
-              : PieceSize(num_images, 4);
-      if (options.matcher == "exhaustive") {
-        job.pair_blocks = ExhaustivePairBlocks(num_images, group);
-      } else if (options.matcher == "sequential") {
-        const SequentialMatchingFlags flags =
-            ReadSequentialMatchingFlags(options.matcher_args);
-        job.pair_blocks = CutPairs(
-            SequentialPairs(num_images, flags.overlap, flags.quadratic),
-            group * group);
-      } else {
-        const size_t shard = options.shard_size > 0
-                                 ? static_cast<size_t>(options.shard_size)
-                                 : PieceSize(num_images, 8);
-        for (size_t start = 0; start < num_images; start += shard) {
-          std::vector<size_t> queries;
-          for (size_t i = start; i < std::min(num_images, start + shard); ++i) {
-            queries.push_back(i);
-          }
-          job.query_shards.push_back(std::move(queries));
-        }
-        job.vocab_tree_path = result.vocab_tree_path;
-        job.num_neighbors = options.num_neighbors;
-      }
-      job.matcher_args = SiftMatchingArgs(options.matcher_args);
-      job.fingerprint = matching_fp;
-      Timer timer;
-      result.matching_blocks =
-          MatchOnSlurm(job, options.colmap, options.slurm, dir, tmp);
-      result.matching_seconds = timer.ElapsedSeconds();
-    } else {
-      fs::copy_file(database, tmp, ec);
-      ThrowUnless(!ec, StrCat("cannot copy ", database, ": ", ec.message()));
-      ClearMatches(tmp);
-      const std::string log =
-          ws + "/logs/" + options.matcher + "_matcher.log";
-      std::vector<std::string> args = {
-          options.matcher + "_matcher", "--database_path",        tmp,
-          "--SiftMatching.use_gpu",     "0",
-          "--SiftMatching.num_threads", std::to_string(options.num_threads)};
-      size_t total = num_images;
-      ProgressLineParser parser = ParseSequentialProgress;
-      if (options.matcher == "exhaustive") {
-        const int block = ExhaustiveBlockSize(options, num_images);
-        args.insert(args.end(), {"--ExhaustiveMatching.block_size",
-                                 std::to_string(block)});
-        const size_t blocks = (num_images + block - 1) / block;
-        total = blocks * blocks;
-        parser = ParseExhaustiveProgress;
-      } else if (options.matcher == "vocab_tree") {
-        args.insert(args.end(), {"--VocabTreeMatching.vocab_tree_path",
-                                 result.vocab_tree_path,
-                                 "--VocabTreeMatching.num_images",
-                                 std::to_string(options.num_neighbors)});
-      }
-      args.insert(args.end(), options.matcher_args.begin(),
-                  options.matcher_args.end());
-      LogHeading(StrCat("Matching ", num_images, " image(s) (colmap ",
-                        options.matcher, "_matcher, CPU)"));
-      result.matching_seconds = RunColmapWithProgress(
-          options.colmap, args, log,
-          options.matcher == "exhaustive" ? "Matching image blocks"
-                                          : "Matching images",
-          total, parser);
-    }
-    size_t num_pairs = 0;
-    {
-      Database db(tmp);
-      num_pairs = db.NumVerifiedPairs(1);
-    }
-    HISFM_LOG_INFO("{} verified image pair(s) ({:.1f} s)", num_pairs,
-                   result.matching_seconds);
-    fs::rename(tmp, database, ec);
-    ThrowUnless(!ec, StrCat("cannot rename ", tmp, ": ", ec.message()));
-    ledger.MarkDone("matching", matching_fp, result.matching_seconds,
-                    {database},
-                    {{"matcher", options.matcher},
-                     {"executor", options.executor},
-                     {"verified_pairs", num_pairs}});
-  }
+  MatchFeatures(run, matching_fp);
   result.recorded_matching_seconds = ledger.Seconds("matching");
   return result;
 }

@@ -10,6 +10,7 @@
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/feature_pipeline.h"
+#include "hisfm/recon/hierarchy_json.h"
 #include "hisfm/recon/input_check.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
@@ -17,19 +18,24 @@
 #include "hisfm/util/logging.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace fs = std::filesystem;
 
 namespace hisfm {
 
 void HierarchicalMapperOptions::Check() const {
-  HISFM_CHECK_OPTION(min_num_matches >= 1);
-  HISFM_CHECK_OPTION(min_model_size >= 2);
-  HISFM_CHECK_OPTION(filter_top_pairs >= 0);
-  HISFM_CHECK_OPTION(scaffold_ba_global_ratio >= 1.0);
-  HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements >= 1);
-  HISFM_CHECK_OPTION(ba_global_function_tolerance >= 0);
-  HISFM_CHECK_OPTION(ba_local_max_refinements >= 1);
+  HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
+  HISFM_CHECK_OPTION(min_model_size, min_model_size >= 2, ">= 2");
+  HISFM_CHECK_OPTION(filter_top_pairs, filter_top_pairs >= 0, ">= 0");
+  HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
+                     scaffold_ba_global_ratio >= 1.0, ">= 1.0");
+  HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements,
+                     scaffold_ba_global_max_refinements >= 1, ">= 1");
+  HISFM_CHECK_OPTION(ba_global_function_tolerance,
+                     ba_global_function_tolerance >= 0, ">= 0");
+  HISFM_CHECK_OPTION(ba_local_max_refinements,
+                     ba_local_max_refinements >= 1, ">= 1");
   hierarchy.Check();
   verifier.Check();
   colmap.Check();
@@ -108,7 +114,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   for (const DatabaseImage& im : images) in.names[im.image_id] = im.name;
   ThrowUnless(!in.names.empty(),
               StrCat("database has no images: ", database_path));
-  in.graph = ViewGraph::FromDatabase(*in.database, options.min_num_matches);
+  in.graph = ReadViewGraph(*in.database, options.min_num_matches);
   ThrowUnless(in.graph.NumEdges() > 0,
               StrCat("database has no verified image pairs with at least ",
                      options.min_num_matches, " inliers (run colmap's "
@@ -227,24 +233,57 @@ void WriteImageList(const std::vector<ImageId>& ids,
   ThrowUnless(out.good(), StrCat("cannot write ", path));
 }
 
-// Largest model folder under `path` (numbered sub-folders), or "".
-std::string LargestModel(const std::string& path) {
-  std::string best;
-  size_t best_size = 0;
+// A model folder and its number of registered images (read once).
+struct ModelFolder {
+  // "" if there is no model.
+  std::string path;
+  size_t num_registered = 0;
+
+  bool empty() const { return path.empty(); }
+};
+
+// The model in `path`, read once for its size.
+ModelFolder ReadModelFolder(const std::string& path) {
+  return {path, ReadModelBinary(path).NumRegImages()};
+}
+
+// Largest model folder under `path` (numbered sub-folders; empty if none).
+// The others are dropped: each is logged with its size.
+ModelFolder LargestModel(const std::string& path) {
+  std::vector<ModelFolder> models;
   std::error_code ec;
-  if (!fs::is_directory(path, ec)) return best;
+  if (!fs::is_directory(path, ec)) return {};
   for (const auto& entry : fs::directory_iterator(path)) {
     if (!entry.is_directory() ||
         !fs::exists(entry.path() / "images.bin")) {
       continue;
     }
-    const size_t size = ReadModelBinary(entry.path().string()).NumRegImages();
-    if (size > best_size) {
-      best_size = size;
-      best = entry.path().string();
+    models.push_back(ReadModelFolder(entry.path().string()));
+  }
+  std::sort(models.begin(), models.end(),
+            [](const ModelFolder& a, const ModelFolder& b) {
+              return a.path < b.path;
+            });
+  ModelFolder best;
+  for (const ModelFolder& m : models) {
+    if (m.num_registered > best.num_registered) best = m;
+  }
+  for (const ModelFolder& m : models) {
+    if (m.path != best.path) {
+      HISFM_LOG_WARN("dropping sub-model {} ({} registered images); keeping {} "
+                     "({} images)",
+                     m.path, m.num_registered, best.path, best.num_registered);
     }
   }
   return best;
+}
+
+// The options of a component's filtered databases: the multi-view
+// verifier's cleaned inliers replace the database's, if there are any.
+FilteredDatabaseOptions ComponentDatabaseOptions(const LoadedInput& in) {
+  FilteredDatabaseOptions filtered;
+  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  return filtered;
 }
 
 nlohmann::json ModelStats(const Reconstruction& model) {
@@ -309,8 +348,7 @@ void PrepareComponent(const ComponentRun& run, const HierarchyComponent& comp,
   std::error_code ec;
   fs::create_directories(run.dir + "/scaffold", ec);
   fs::create_directories(run.dir + "/attached", ec);
-  FilteredDatabaseOptions filtered;
-  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
+  const FilteredDatabaseOptions filtered = ComponentDatabaseOptions(in);
   WriteFilteredDatabase(run.database_path, run.dir + "/skeleton.db",
                         comp.skeleton_edges, filtered);
   WriteFilteredDatabase(run.database_path, run.dir + "/hierarchy.db",
@@ -322,9 +360,8 @@ void PrepareComponent(const ComponentRun& run, const HierarchyComponent& comp,
 }
 
 struct ScaffoldOutcome {
-  // The largest scaffold model, or "" when colmap could not start one.
-  std::string model_path;
-  size_t num_registered = 0;
+  // The largest scaffold model, empty when colmap could not start one.
+  ModelFolder model;
   // True when there is no scaffold and the leaves' stage starts from scratch.
   bool fallback = false;
 };
@@ -364,14 +401,14 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
     RunColmapWithProgress(options.colmap, args, run.Log(),
                           "Scaffold: registering images",
                           comp.skeleton_images.size(), ParseMapperProgress);
-    outcome.model_path = LargestModel(run.dir + "/scaffold");
+    outcome.model = LargestModel(run.dir + "/scaffold");
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
     HISFM_LOG_WARN("scaffold: {}", e.what());
   }
   times->scaffold += timer.ElapsedSeconds();
-  if (outcome.model_path.empty()) {
+  if (outcome.model.empty()) {
     outcome.fallback = true;
     HISFM_LOG_WARN(
         "scaffold: colmap could not start a model on the {} skeletal images; "
@@ -379,26 +416,24 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
         comp.skeleton_images.size());
     return outcome;
   }
-  outcome.num_registered = ReadModelBinary(outcome.model_path).NumRegImages();
   HISFM_LOG_INFO("scaffold: {}/{} skeletal images registered ({:.1f} s)",
-                 outcome.num_registered, comp.skeleton_images.size(),
+                 outcome.model.num_registered, comp.skeleton_images.size(),
                  timer.ElapsedSeconds());
   return outcome;
 }
 
 // Registers the remaining images on the hierarchy's edges only (paper, Sec.
-// III-D), starting from the scaffold, or from scratch without one. Returns
-// the model folder.
+// III-D), starting from the scaffold, or from scratch without one (an empty
+// `scaffold`). Returns the model folder.
 // `stage` names the database (STAGE.db) and the output folder (STAGE/) in
 // the component's folder, and is "attached" for the hierarchy's edges.
-std::string AttachLeaves(const ComponentRun& run,
+ModelFolder AttachLeaves(const ComponentRun& run,
                          const HierarchyComponent& comp,
                          const HierarchicalMapperOptions& options,
-                         const std::string& scaffold, StageTimes* times,
+                         const ModelFolder& scaffold, StageTimes* times,
                          const std::string& stage = "attached",
                          size_t num_edges = 0) {
-  const size_t scaffold_size =
-      scaffold.empty() ? 0 : ReadModelBinary(scaffold).NumRegImages();
+  const size_t scaffold_size = scaffold.num_registered;
   const std::string database =
       run.dir + (stage == "attached" ? "/hierarchy.db" : "/" + stage + ".db");
   LogHeading(StrCat("Attach: registering ", comp.images.size() - scaffold_size,
@@ -407,7 +442,7 @@ std::string AttachLeaves(const ComponentRun& run,
   std::vector<std::string> args = {"mapper", "--database_path", database,
                                    "--image_path", run.image_path};
   if (!scaffold.empty()) {
-    args.insert(args.end(), {"--input_path", scaffold});
+    args.insert(args.end(), {"--input_path", scaffold.path});
   }
   const std::string out_dir = run.dir + "/" + stage;
   std::error_code ec;
@@ -446,31 +481,32 @@ std::string AttachLeaves(const ComponentRun& run,
   }
   const double seconds = timer.ElapsedSeconds();
   times->attach += seconds;
-  std::string attached = out_dir;
-  if (!fs::exists(attached + "/images.bin")) attached = LargestModel(attached);
+  const ModelFolder attached = fs::exists(out_dir + "/images.bin")
+                                  ? ReadModelFolder(out_dir)
+                                  : LargestModel(out_dir);
   if (attached.empty() && !failure.empty()) throw Error(failure);
   ThrowUnless(!attached.empty(),
               StrCat("colmap wrote no model after attaching leaves; see ",
                      run.Log()));
   if (!failure.empty()) HISFM_LOG_WARN("attach: {}", failure);
   HISFM_LOG_INFO("attached: {}/{} images registered ({:.1f} s)",
-                 ReadModelBinary(attached).NumRegImages(), comp.images.size(),
-                 seconds);
+                 attached.num_registered, comp.images.size(), seconds);
   return attached;
 }
 
 // Registers the images of the component that the hierarchy's edges left
 // unregistered through their reserve edges (verified, but below the support
 // threshold), starting from the attached model; returns the model with more
-// registered images.
-std::string RescueUnregistered(const ComponentRun& run,
+// registered images. A failing rescue is logged and the attached model kept,
+// as a failing scaffold falls back to the attach stage.
+ModelFolder RescueUnregistered(const ComponentRun& run,
                                const HierarchyComponent& comp,
                                const LoadedInput& in,
                                const HierarchicalMapperOptions& options,
-                               const std::string& attached,
+                               const ModelFolder& attached,
                                StageTimes* times) {
   if (in.reserve_edges.empty()) return attached;
-  const Reconstruction model = ReadModelBinary(attached);
+  const Reconstruction model = ReadModelBinary(attached.path);
   std::set<ImageId> registered;
   for (const auto& [id, image] : model.images) registered.insert(id);
   const std::set<ImageId> members(comp.images.begin(), comp.images.end());
@@ -492,34 +528,146 @@ std::string RescueUnregistered(const ComponentRun& run,
   HISFM_LOG_INFO("rescue: {} unregistered image(s), {} reserve edge(s)",
                  missing.size(), num_reserve);
   Timer timer;
-  FilteredDatabaseOptions filtered;
-  if (!in.inliers.empty()) filtered.replace_inliers = &in.inliers;
   WriteFilteredDatabase(run.database_path, run.dir + "/rescued.db",
-                        {edges.begin(), edges.end()}, filtered);
+                        {edges.begin(), edges.end()},
+                        ComponentDatabaseOptions(in));
   times->filter_databases += timer.ElapsedSeconds();
-  const std::string rescued = AttachLeaves(run, comp, options, attached, times,
-                                           "rescued", edges.size());
-  return ReadModelBinary(rescued).NumRegImages() > model.NumRegImages()
-             ? rescued
-             : attached;
+  ModelFolder rescued;
+  try {
+    rescued = AttachLeaves(run, comp, options, attached, times, "rescued",
+                           edges.size());
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("rescue: {}; keeping the attached model", e.what());
+    return attached;
+  }
+  return rescued.num_registered > attached.num_registered ? rescued
+                                                          : attached;
 }
 
 // The optional extra global bundle adjustment; returns the final model.
-std::string RefineModel(const ComponentRun& run, const std::string& attached,
+std::string RefineModel(const ComponentRun& run, const ModelFolder& attached,
                         const HierarchicalMapperOptions& options,
                         StageTimes* times) {
-  if (!options.global_bundle_adjustment) return attached;
+  if (!options.global_bundle_adjustment) return attached.path;
   LogHeading("Global bundle adjustment");
   std::error_code ec;
   fs::create_directories(run.dir + "/refined", ec);
   const double seconds = RunColmap(
       options.colmap,
-      {"bundle_adjuster", "--input_path", attached, "--output_path",
+      {"bundle_adjuster", "--input_path", attached.path, "--output_path",
        run.dir + "/refined"},
       run.Log());
   times->bundle_adjustment += seconds;
   HISFM_LOG_INFO("bundle adjustment done ({:.1f} s)", seconds);
   return run.dir + "/refined";
+}
+
+// Writes the hierarchy as JSON (HierarchyToJson) to `path`.
+void WriteViewGraphJson(const LoadedInput& in, const std::string& path) {
+  std::ofstream out(path);
+  out << HierarchyToJson(in.hierarchy, in.graph, in.names).dump(1);
+}
+
+// Checks the mapper's paths before any work: a readable database, an image
+// folder, a missing or empty output folder (normalized into
+// `output_path`) and a work folder apart from the output and the inputs.
+// Returns the work folder.
+std::string CheckMapperPaths(const MapperPaths& paths,
+                             std::string* output_path) {
+  CheckFileReadable(paths.database_path, "database");
+  CheckDirectoryExists(paths.image_path, "image folder");
+  ThrowUnless(!paths.output_path.empty(), "--output_path is required");
+  // "out/", "./out" and "out" name one folder: normalized before the work
+  // folder's name is derived from it.
+  *output_path = NormalizePath(paths.output_path);
+  std::error_code ec;
+  ThrowUnless(
+      !fs::exists(*output_path, ec) || fs::is_directory(*output_path, ec),
+      StrCat("output path is a file, not a folder: ", *output_path));
+  ThrowUnless(IsMissingOrEmptyDirectory(*output_path),
+              StrCat("output folder is not empty: ", *output_path));
+  const std::string work = NormalizePath(
+      paths.work_path.empty() ? *output_path + "_work" : paths.work_path);
+  ThrowUnless(!IsSameOrInside(work, *output_path) &&
+                  !IsSameOrInside(*output_path, work),
+              StrCat("--work_path ", work, " and --output_path ",
+                     *output_path, " must not contain each other"));
+  for (const std::string& input : {paths.database_path, paths.image_path}) {
+    ThrowUnless(!IsSameOrInside(input, work),
+                StrCat("--work_path ", work, " holds the input ", input));
+  }
+  return work;
+}
+
+// One component's final model and its scaffold.
+struct ComponentModel {
+  Reconstruction model;
+  ScaffoldOutcome scaffold;
+};
+
+// Reconstructs one component: filtered databases, scaffold, attached leaves,
+// rescued images, optional global bundle adjustment.
+ComponentModel ReconstructComponent(const ComponentRun& run,
+                                    const HierarchyComponent& comp,
+                                    const LoadedInput& in,
+                                    const HierarchicalMapperOptions& options,
+                                    StageTimes* times) {
+  PrepareComponent(run, comp, in, times);
+  ComponentModel out;
+  out.scaffold = ReconstructScaffold(run, comp, options, times);
+  const ModelFolder attached = RescueUnregistered(
+      run, comp, in, options,
+      AttachLeaves(run, comp, options, out.scaffold.model, times), times);
+  out.model = ReadModelBinary(RefineModel(run, attached, options, times));
+  return out;
+}
+
+// A component's entry in the summary's "models" (its model is `index`).
+nlohmann::json ComponentStats(const ComponentModel& result,
+                              const HierarchyComponent& comp, size_t index) {
+  nlohmann::json stats = ModelStats(result.model);
+  stats["component_images"] = comp.images.size();
+  stats["scaffold_images"] = comp.skeleton_images.size();
+  stats["scaffold_registered"] = result.scaffold.model.num_registered;
+  stats["scaffold_fallback"] = result.scaffold.fallback;
+  stats["path"] = std::to_string(index);
+  return stats;
+}
+
+// The run's summary (hisfm_summary.json): the hierarchy's counts, the
+// inputs, each model's statistics and the failed components, timings.
+nlohmann::json MapperSummary(const LoadedInput& in, const MapperPaths& paths,
+                             const std::string& work,
+                             const HierarchicalMapperOptions& options,
+                             size_t num_registered,
+                             const nlohmann::json& models,
+                             const nlohmann::json& failed,
+                             const StageTimes& times, double total_seconds) {
+  nlohmann::json summary = HierarchySummary(in);
+  summary["database_path"] = fs::absolute(paths.database_path).string();
+  summary["image_path"] = fs::absolute(paths.image_path).string();
+  summary["work_path"] = fs::absolute(work).string();
+  summary["colmap_version"] =
+      ProbeColmap(options.colmap.colmap_path).version.text;
+  summary["registered_images"] = num_registered;
+  summary["models"] = models;
+  summary["failed_components"] = failed;
+  if (!models.empty()) {
+    summary["points3D"] = models[0]["points3D"];
+    summary["mean_reprojection_error"] = models[0]["mean_reprojection_error"];
+    summary["mean_track_length"] = models[0]["mean_track_length"];
+  }
+  summary["timings"] = {{"read_database", in.read_seconds},
+                        {"filter_pairs", in.filter_seconds},
+                        {"build_hierarchy", in.graph_seconds},
+                        {"filter_databases", times.filter_databases},
+                        {"scaffold", times.scaffold},
+                        {"attach", times.attach},
+                        {"global_bundle_adjustment", times.bundle_adjustment},
+                        {"total", total_seconds}};
+  return summary;
 }
 
 }  // namespace
@@ -542,28 +690,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                                      const HierarchicalMapperOptions& options) {
   options.Check();
   Timer total;
-  CheckFileReadable(paths.database_path, "database");
-  CheckDirectoryExists(paths.image_path, "image folder");
-  ThrowUnless(!paths.output_path.empty(), "--output_path is required");
-  // "out/", "./out" and "out" name one folder: normalized before the work
-  // folder's name is derived from it.
-  const std::string output_path = NormalizePath(paths.output_path);
+  std::string output_path;
+  const std::string work = CheckMapperPaths(paths, &output_path);
   std::error_code ec;
-  ThrowUnless(
-      !fs::exists(output_path, ec) || fs::is_directory(output_path, ec),
-      StrCat("output path is a file, not a folder: ", output_path));
-  ThrowUnless(IsMissingOrEmptyDirectory(output_path),
-              StrCat("output folder is not empty: ", output_path));
-  const std::string work = NormalizePath(
-      paths.work_path.empty() ? output_path + "_work" : paths.work_path);
-  ThrowUnless(!IsSameOrInside(work, output_path) &&
-                  !IsSameOrInside(output_path, work),
-              StrCat("--work_path ", work, " and --output_path ", output_path,
-                     " must not contain each other"));
-  for (const std::string& input : {paths.database_path, paths.image_path}) {
-    ThrowUnless(!IsSameOrInside(input, work),
-                StrCat("--work_path ", work, " holds the input ", input));
-  }
   // Bad input stops here, in one line, before any colmap call.
   RequireValidDatabase(paths.database_path);
   // Also refuses a colmap release whose option names hisfm does not know.
@@ -576,10 +705,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
   const Hierarchy& h = in.hierarchy;
 
-  {
-    std::ofstream out(work + "/view_graph.json");
-    out << HierarchyToJson(h, in.graph, in.names).dump(1);
-  }
+  WriteViewGraphJson(in, work + "/view_graph.json");
 
   nlohmann::json models = nlohmann::json::array();
   nlohmann::json failed = nlohmann::json::array();
@@ -599,28 +725,13 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
                            paths.image_path};
     try {
-      Timer timer;
-      PrepareComponent(run, comp, in, &times);
-      const ScaffoldOutcome scaffold = ReconstructScaffold(run, comp, options,
-                                                           &times);
-      const std::string attached = RescueUnregistered(
-          run, comp, in, options,
-          AttachLeaves(run, comp, options, scaffold.model_path, &times),
-          &times);
-      const std::string final_model = RefineModel(run, attached, options,
-                                                  &times);
-      const Reconstruction model = ReadModelBinary(final_model);
+      const ComponentModel result =
+          ReconstructComponent(run, comp, in, options, &times);
       const std::string model_dir = StrCat(output.path(), "/", model_index++);
       fs::create_directories(model_dir, ec);
-      WriteModelBinary(model, model_dir);
-      num_registered += model.NumRegImages();
-      nlohmann::json stats = ModelStats(model);
-      stats["component_images"] = comp.images.size();
-      stats["scaffold_images"] = comp.skeleton_images.size();
-      stats["scaffold_registered"] = scaffold.num_registered;
-      stats["scaffold_fallback"] = scaffold.fallback;
-      stats["path"] = std::to_string(model_index - 1);
-      models.push_back(stats);
+      WriteModelBinary(result.model, model_dir);
+      num_registered += result.model.NumRegImages();
+      models.push_back(ComponentStats(result, comp, model_index - 1));
     } catch (const Interrupted&) {
       throw;
     } catch (const Error& e) {
@@ -639,28 +750,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                                                        .get<std::string>(),
                                                    ")")));
 
-  nlohmann::json summary = HierarchySummary(in);
-  summary["database_path"] = fs::absolute(paths.database_path).string();
-  summary["image_path"] = fs::absolute(paths.image_path).string();
-  summary["work_path"] = fs::absolute(work).string();
-  summary["colmap_version"] =
-      ProbeColmap(options.colmap.colmap_path).version.text;
-  summary["registered_images"] = num_registered;
-  summary["models"] = models;
-  summary["failed_components"] = failed;
-  if (!models.empty()) {
-    summary["points3D"] = models[0]["points3D"];
-    summary["mean_reprojection_error"] = models[0]["mean_reprojection_error"];
-    summary["mean_track_length"] = models[0]["mean_track_length"];
-  }
-  summary["timings"] = {{"read_database", in.read_seconds},
-                        {"filter_pairs", in.filter_seconds},
-                        {"build_hierarchy", in.graph_seconds},
-                        {"filter_databases", times.filter_databases},
-                        {"scaffold", times.scaffold},
-                        {"attach", times.attach},
-                        {"global_bundle_adjustment", times.bundle_adjustment},
-                        {"total", total.ElapsedSeconds()}};
+  const nlohmann::json summary =
+      MapperSummary(in, paths, work, options, num_registered, models, failed,
+                    times, total.ElapsedSeconds());
   if (!paths.options_record.empty()) {
     WriteFileAtomically(output.path() + "/hisfm_options.ini",
                         paths.options_record);

@@ -219,6 +219,8 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   // The attach run keeps its own schedule: global adjustment only at the end.
   EXPECT_NE(attach.find("--Mapper.ba_global_images_ratio 1000000 "),
             std::string::npos) << attach;
+  // No extra bundle adjustment unless asked for: no refined/ folder.
+  EXPECT_FALSE(fs::exists(tmp / "out_work/component0/refined"));
   const PoseEvaluation e =
       EvaluateModel(ReadModel(tmp / "out/0"),
                     ReadModel(tmp / "scene/ground_truth"), {});
@@ -232,6 +234,49 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   options.ba_global_function_tolerance = -1;
   EXPECT_NE(ErrorOf(paths, options).find("ba_global_function_tolerance"),
             std::string::npos);
+}
+
+// --HiSfM.global_bundle_adjustment: one colmap bundle_adjuster on the
+// attached model, whose output (refined/) is the component's model.
+TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  SynthOptions synth;
+  synth.scene = "object_control";
+  synth.num_images = 16;
+  synth.seed = 3;
+  WriteSyntheticDataset(synth, tmp / "scene");
+  MapperPaths paths;
+  paths.database_path = tmp / "scene/database.db";
+  paths.image_path = tmp / "scene/images";
+  paths.output_path = tmp / "out";
+  HierarchicalMapperOptions options;
+  options.global_bundle_adjustment = true;
+  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  const std::string component = tmp / "out_work/component0";
+  std::ifstream log(component + "/colmap.log");
+  std::vector<std::string> adjusters;
+  for (std::string line; std::getline(log, line);) {
+    if (line.rfind("$ colmap bundle_adjuster", 0) == 0) {
+      adjusters.push_back(line + " ");
+    }
+  }
+  ASSERT_EQ(adjusters.size(), 1u);
+  EXPECT_NE(adjusters[0].find("--input_path " + component + "/attached "),
+            std::string::npos)
+      << adjusters[0];
+  EXPECT_NE(adjusters[0].find("--output_path " + component + "/refined "),
+            std::string::npos)
+      << adjusters[0];
+  ASSERT_TRUE(fs::exists(component + "/refined/images.bin"));
+  EXPECT_GT(summary["timings"]["global_bundle_adjustment"].get<double>(), 0);
+  const Reconstruction refined = ReadModel(component + "/refined");
+  const Reconstruction out = ReadModel(tmp / "out/0");
+  EXPECT_EQ(out.NumRegImages(), refined.NumRegImages());
+  EXPECT_EQ(out.NumRegImages(), 16u);
+  const PoseEvaluation e =
+      EvaluateModel(out, ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
 }
 
 // Two unrelated synthetic scenes in one database: one model per connected

@@ -22,15 +22,15 @@ namespace fs = std::filesystem;
 namespace hisfm {
 
 void SlurmOptions::Check() const {
-  HISFM_CHECK_OPTION(!sbatch_path.empty());
-  HISFM_CHECK_OPTION(!squeue_path.empty());
-  HISFM_CHECK_OPTION(!scancel_path.empty());
-  HISFM_CHECK_OPTION(cpus_per_task >= 1);
-  HISFM_CHECK_OPTION(mem_mb >= 0);
-  HISFM_CHECK_OPTION(time_limit_minutes >= 0);
-  HISFM_CHECK_OPTION(max_parallel_tasks >= 0);
-  HISFM_CHECK_OPTION(max_retries >= 0);
-  HISFM_CHECK_OPTION(poll_seconds > 0);
+  HISFM_CHECK_OPTION(sbatch_path, !sbatch_path.empty(), "non-empty");
+  HISFM_CHECK_OPTION(squeue_path, !squeue_path.empty(), "non-empty");
+  HISFM_CHECK_OPTION(scancel_path, !scancel_path.empty(), "non-empty");
+  HISFM_CHECK_OPTION(cpus_per_task, cpus_per_task >= 1, ">= 1");
+  HISFM_CHECK_OPTION(mem_mb, mem_mb >= 0, ">= 0");
+  HISFM_CHECK_OPTION(time_limit_minutes, time_limit_minutes >= 0, ">= 0");
+  HISFM_CHECK_OPTION(max_parallel_tasks, max_parallel_tasks >= 0, ">= 0");
+  HISFM_CHECK_OPTION(max_retries, max_retries >= 0, ">= 0");
+  HISFM_CHECK_OPTION(poll_seconds, poll_seconds > 0, "> 0");
 }
 
 std::string ShellQuote(const std::string& word) {

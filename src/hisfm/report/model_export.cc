@@ -10,7 +10,8 @@
 namespace hisfm {
 
 void PlyExportOptions::Check() const {
-  HISFM_CHECK_OPTION(include_points || include_cameras);
+  HISFM_CHECK_OPTION(include_points, include_points || include_cameras,
+                     "true when include_cameras is false");
 }
 
 namespace {

@@ -21,9 +21,9 @@ namespace fs = std::filesystem;
 namespace hisfm {
 
 void ReportOptions::Check() const {
-  HISFM_CHECK_OPTION(max_points >= 1);
-  HISFM_CHECK_OPTION(max_table_rows >= 1);
-  HISFM_CHECK_OPTION(drawing_width >= 200);
+  HISFM_CHECK_OPTION(max_points, max_points >= 1, ">= 1");
+  HISFM_CHECK_OPTION(max_table_rows, max_table_rows >= 1, ">= 1");
+  HISFM_CHECK_OPTION(drawing_width, drawing_width >= 200, ">= 200");
 }
 
 namespace {
@@ -473,100 +473,109 @@ std::string Line(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
   return out + "><title>" + Esc(title) + "</title></line>";
 }
 
-std::string ViewGraphSection(const ReportInput& in,
-                             const ReportOptions& options) {
-  const std::vector<GraphImage> images = HierarchyImages(in.hierarchy);
-  if (images.empty()) return "";
+// Where the view graph's images are drawn.
+struct GraphDrawing {
   std::map<uint32_t, const GraphImage*> by_id;
-  for (const GraphImage& im : images) by_id[im.id] = &im;
-  const GraphLayout layout = LayoutGraph(images, in.model);
+  GraphLayout layout;
+  Viewport vp;
+  // Radius of a skeletal image's dot.
+  double r = 0;
 
-  Bounds b;
-  for (const auto& [id, p] : layout.position) b.Add(p);
-  const double width = options.drawing_width;
-  const Viewport vp = FitViewport(b.min_x, b.max_x, b.min_y, b.max_y, width,
-                                  320, 760, 40);
-  auto pos = [&](uint32_t id) -> std::optional<Eigen::Vector2d> {
+  std::optional<Eigen::Vector2d> Pos(uint32_t id) const {
     auto it = layout.position.find(id);
     if (it == layout.position.end()) return std::nullopt;
     return vp.Map(it->second);
-  };
-  auto name = [&](uint32_t id) {
+  }
+  std::string Name(uint32_t id) const {
     auto it = by_id.find(id);
     return it == by_id.end() ? StrCat("#", id) : it->second->name;
-  };
-  const double r = std::clamp(60.0 / std::sqrt(static_cast<double>(
-                                         std::max<size_t>(images.size(), 1))),
-                              2.5, 7.0);
-
-  const std::vector<GraphEdge> leaves =
-      HierarchyEdges(in.hierarchy, "leaf_edges");
-  const std::vector<GraphEdge> intra =
-      HierarchyEdges(in.hierarchy, "skeleton_intra_edges");
-  const std::vector<GraphEdge> bridges =
-      HierarchyEdges(in.hierarchy, "skeleton_bridges");
-  const std::vector<GraphEdge> rejected =
-      HierarchyEdges(in.hierarchy, "rejected_bridges");
-
-  std::ostringstream svg;
-  svg << "<svg class=\"drawing\" viewBox=\"0 0 " << C(vp.width) << ' '
-      << C(vp.height) << "\" role=\"img\" aria-label=\"view graph\">\n";
-  svg << "<rect class=\"bg\" width=\"" << C(vp.width) << "\" height=\""
-      << C(vp.height) << "\"/>\n";
-  if (layout.from_model && !layout.unregistered.empty()) {
-    const auto p = pos(*layout.unregistered.begin());
-    svg << "<text class=\"note\" x=\"10\" y=\"" << C(p->y() - 2 * r - 4)
-        << "\">not registered:</text>\n";
   }
+};
+
+// Lays the images out (at their camera centres, or community circles) and
+// fits them into the drawing.
+GraphDrawing PlaceGraph(const std::vector<GraphImage>& images,
+                        const ReportInput& in, const ReportOptions& options) {
+  GraphDrawing d;
+  for (const GraphImage& im : images) d.by_id[im.id] = &im;
+  d.layout = LayoutGraph(images, in.model);
+  Bounds b;
+  for (const auto& [id, p] : d.layout.position) b.Add(p);
+  const double width = options.drawing_width;
+  d.vp = FitViewport(b.min_x, b.max_x, b.min_y, b.max_y, width, 320, 760, 40);
+  d.r = std::clamp(60.0 / std::sqrt(static_cast<double>(
+                                std::max<size_t>(images.size(), 1))),
+                   2.5, 7.0);
+  return d;
+}
+
+// The hierarchy's edges by kind, as drawn.
+struct HierarchyEdgeSets {
+  std::vector<GraphEdge> leaves, intra, bridges, rejected;
+};
+
+// The edge groups: leaf edges, intra-community skeleton edges, rejected
+// bridges, skeleton bridges (drawn in this order).
+void DrawGraphEdges(const GraphDrawing& d, const HierarchyEdgeSets& edges,
+                    std::ostringstream& svg) {
   svg << "<g class=\"e-leaf\">\n";
-  for (const GraphEdge& e : leaves) {
-    const auto a = pos(e.a), c = pos(e.b);
+  for (const GraphEdge& e : edges.leaves) {
+    const auto a = d.Pos(e.a), c = d.Pos(e.b);
     if (!a || !c) continue;
     svg << Line(*a, *c,
-                StrCat("leaf edge ", name(e.a), " - ", name(e.b), ", ",
+                StrCat("leaf edge ", d.Name(e.a), " - ", d.Name(e.b), ", ",
                        e.inliers, " inliers"))
         << '\n';
   }
   svg << "</g>\n<g class=\"e-intra\">\n";
-  for (const GraphEdge& e : intra) {
-    const auto a = pos(e.a), c = pos(e.b);
+  for (const GraphEdge& e : edges.intra) {
+    const auto a = d.Pos(e.a), c = d.Pos(e.b);
     if (!a || !c) continue;
-    const int community = by_id.count(e.a) ? by_id[e.a]->community : -1;
+    const int community =
+        d.by_id.count(e.a) ? d.by_id.at(e.a)->community : -1;
     svg << "<g stroke=\"" << CommunityColor(community) << "\">"
         << Line(*a, *c,
-                StrCat("skeleton edge ", name(e.a), " - ", name(e.b), ", ",
-                       e.inliers, " inliers"))
+                StrCat("skeleton edge ", d.Name(e.a), " - ", d.Name(e.b),
+                       ", ", e.inliers, " inliers"))
         << "</g>\n";
   }
   svg << "</g>\n<g class=\"e-rejected\">\n";
-  for (const GraphEdge& e : rejected) {
-    const auto a = pos(e.a), c = pos(e.b);
+  for (const GraphEdge& e : edges.rejected) {
+    const auto a = d.Pos(e.a), c = d.Pos(e.b);
     if (!a || !c) continue;
     svg << Line(*a, *c,
-                StrCat("rejected bridge ", name(e.a), " - ", name(e.b),
+                StrCat("rejected bridge ", d.Name(e.a), " - ", d.Name(e.b),
                        ", communities ", e.community1, "-", e.community2,
                        ", ", e.inliers, " inliers, score ", Fixed(e.score, 3)))
         << '\n';
   }
   svg << "</g>\n<g class=\"e-bridge\">\n";
-  for (const GraphEdge& e : bridges) {
-    const auto a = pos(e.a), c = pos(e.b);
+  for (const GraphEdge& e : edges.bridges) {
+    const auto a = d.Pos(e.a), c = d.Pos(e.b);
     if (!a || !c) continue;
     svg << Line(*a, *c,
-                StrCat("skeleton bridge ", name(e.a), " - ", name(e.b),
+                StrCat("skeleton bridge ", d.Name(e.a), " - ", d.Name(e.b),
                        ", communities ", e.community1, "-", e.community2,
                        ", ", e.inliers, " inliers, score ", Fixed(e.score, 3),
                        e.tree >= 0 ? StrCat(", tree ", e.tree) : "",
                        e.role.empty() ? "" : ", " + e.role))
         << '\n';
   }
-  svg << "</g>\n<g class=\"nodes\">\n";
+  svg << "</g>\n";
+}
+
+// One dot per image: large for skeletal images, small for leaves, outlined
+// when not registered.
+void DrawGraphNodes(const GraphDrawing& d,
+                    const std::vector<GraphImage>& images,
+                    std::ostringstream& svg) {
+  svg << "<g class=\"nodes\">\n";
   for (const GraphImage& im : images) {
-    const auto p = pos(im.id);
+    const auto p = d.Pos(im.id);
     if (!p) continue;
-    const bool unregistered = layout.unregistered.count(im.id) > 0;
+    const bool unregistered = d.layout.unregistered.count(im.id) > 0;
     svg << "<circle cx=\"" << C(p->x()) << "\" cy=\"" << C(p->y())
-        << "\" r=\"" << C(im.skeletal ? r : 0.72 * r) << "\" fill=\""
+        << "\" r=\"" << C(im.skeletal ? d.r : 0.72 * d.r) << "\" fill=\""
         << (unregistered ? "#ffffff" : CommunityColor(im.community))
         << "\" class=\"" << (im.skeletal ? "skel" : "leaf")
         << (unregistered ? " unreg" : "") << "\"";
@@ -579,21 +588,26 @@ std::string ViewGraphSection(const ReportInput& in,
                       unregistered ? ", not registered" : ""))
         << "</title></circle>\n";
   }
-  svg << "</g>\n<g class=\"e-label\">\n";
+  svg << "</g>\n";
+}
+
+// The scores of the `max_labels` strongest rejected bridges. Each label goes
+// to the first point along its bridge (middle first) that keeps clear of the
+// labels placed before it.
+void DrawBridgeLabels(const GraphDrawing& d,
+                      const std::vector<GraphEdge>& rejected,
+                      size_t max_labels, std::ostringstream& svg) {
+  svg << "<g class=\"e-label\">\n";
   std::vector<const GraphEdge*> labelled;
   for (const GraphEdge& e : rejected) labelled.push_back(&e);
   std::sort(labelled.begin(), labelled.end(),
             [](const GraphEdge* x, const GraphEdge* y) {
               return x->inliers > y->inliers;
             });
-  if (labelled.size() > options.max_bridge_labels) {
-    labelled.resize(options.max_bridge_labels);
-  }
-  // Each label goes to the first point along its bridge (middle first) that
-  // keeps clear of the labels placed before it.
+  if (labelled.size() > max_labels) labelled.resize(max_labels);
   std::vector<Eigen::Vector2d> placed;
   for (const GraphEdge* e : labelled) {
-    const auto a = pos(e->a), c = pos(e->b);
+    const auto a = d.Pos(e->a), c = d.Pos(e->b);
     if (!a || !c) continue;
     Eigen::Vector2d m = 0.5 * (*a + *c);
     for (double t : {0.5, 0.38, 0.62, 0.28, 0.72, 0.2, 0.8}) {
@@ -611,7 +625,41 @@ std::string ViewGraphSection(const ReportInput& in,
     svg << "<text x=\"" << C(m.x()) << "\" y=\"" << C(m.y() - 3) << "\">"
         << Fixed(e->score, 2) << "</text>\n";
   }
-  svg << "</g>\n</svg>\n";
+  svg << "</g>\n";
+}
+
+// The view graph drawing (SVG).
+std::string ViewGraphSvg(const GraphDrawing& d,
+                         const std::vector<GraphImage>& images,
+                         const HierarchyEdgeSets& edges,
+                         const ReportOptions& options) {
+  std::ostringstream svg;
+  svg << "<svg class=\"drawing\" viewBox=\"0 0 " << C(d.vp.width) << ' '
+      << C(d.vp.height) << "\" role=\"img\" aria-label=\"view graph\">\n";
+  svg << "<rect class=\"bg\" width=\"" << C(d.vp.width) << "\" height=\""
+      << C(d.vp.height) << "\"/>\n";
+  if (d.layout.from_model && !d.layout.unregistered.empty()) {
+    const auto p = d.Pos(*d.layout.unregistered.begin());
+    svg << "<text class=\"note\" x=\"10\" y=\"" << C(p->y() - 2 * d.r - 4)
+        << "\">not registered:</text>\n";
+  }
+  DrawGraphEdges(d, edges, svg);
+  DrawGraphNodes(d, images, svg);
+  DrawBridgeLabels(d, edges.rejected, options.max_bridge_labels, svg);
+  svg << "</svg>\n";
+  return svg.str();
+}
+
+std::string ViewGraphSection(const ReportInput& in,
+                             const ReportOptions& options) {
+  const std::vector<GraphImage> images = HierarchyImages(in.hierarchy);
+  if (images.empty()) return "";
+  const GraphDrawing d = PlaceGraph(images, in, options);
+  HierarchyEdgeSets edges;
+  edges.leaves = HierarchyEdges(in.hierarchy, "leaf_edges");
+  edges.intra = HierarchyEdges(in.hierarchy, "skeleton_intra_edges");
+  edges.bridges = HierarchyEdges(in.hierarchy, "skeleton_bridges");
+  edges.rejected = HierarchyEdges(in.hierarchy, "rejected_bridges");
 
   std::ostringstream out;
   out << "<h2>View graph and hierarchy</h2>\n<p class=\"caption\">"
@@ -619,7 +667,7 @@ std::string ViewGraphSection(const ReportInput& in,
       << in.hierarchy.value("num_communities", 0) << " communities (one "
       << "colour each); large outlined dots are skeletal images, small dots "
       << "leaves. "
-      << (layout.from_model
+      << (d.layout.from_model
               ? "Images are placed at their reconstructed camera centres "
                 "(top view of the model)."
               : "Each community is drawn on its own circle (no model).")
@@ -627,23 +675,23 @@ std::string ViewGraphSection(const ReportInput& in,
   out << "<div class=\"toggles\">\n"
       << "<input type=\"checkbox\" id=\"t-leaf\" checked><label "
          "for=\"t-leaf\"><span class=\"sw sw-leaf\"></span>leaf edges ("
-      << leaves.size() << ")</label>\n"
+      << edges.leaves.size() << ")</label>\n"
       << "<input type=\"checkbox\" id=\"t-intra\" checked><label "
          "for=\"t-intra\"><span class=\"sw sw-intra\"></span>skeleton edges "
          "in a community ("
-      << intra.size() << ")</label>\n"
+      << edges.intra.size() << ")</label>\n"
       << "<input type=\"checkbox\" id=\"t-bridge\" checked><label "
          "for=\"t-bridge\"><span class=\"sw sw-bridge\"></span>skeleton "
          "bridges ("
-      << bridges.size() << ")</label>\n"
+      << edges.bridges.size() << ")</label>\n"
       << "<input type=\"checkbox\" id=\"t-rejected\" checked><label "
          "for=\"t-rejected\"><span class=\"sw sw-rejected\"></span>rejected "
          "bridges ("
-      << rejected.size() << ")</label>\n"
+      << edges.rejected.size() << ")</label>\n"
       << "<input type=\"checkbox\" id=\"t-label\" checked><label "
          "for=\"t-label\">scores of rejected bridges</label>\n"
       << "<div class=\"figure\">\n"
-      << svg.str() << "</div>\n</div>\n";
+      << ViewGraphSvg(d, images, edges, options) << "</div>\n</div>\n";
   return out.str();
 }
 
@@ -685,6 +733,112 @@ std::string BridgeTable(const ReportInput& in, const ReportOptions& options) {
 
 // Top view of `model` with the input's reference overlaid and cameras
 // coloured by the input's communities, under the heading `title`.
+// The points inside `clip`, grouped by colour (3 bits per channel), one
+// path per colour; returns how many were drawn.
+size_t DrawTopViewPoints(
+    const std::vector<std::pair<Eigen::Vector2d, const Point3D*>>& points,
+    const Bounds& clip, const Viewport& vp, std::ostringstream& svg) {
+  std::map<int, std::string> paths;
+  size_t drawn = 0;
+  for (const auto& [q, p] : points) {
+    if (!clip.Contains(q)) continue;
+    const Eigen::Vector2d s = vp.Map(q);
+    const int key = ((p->color(0) >> 5) << 6) | ((p->color(1) >> 5) << 3) |
+                    (p->color(2) >> 5);
+    paths[key] += "M" + C(s.x()) + " " + C(s.y()) + "h0";
+    ++drawn;
+  }
+  svg << "<g class=\"points\">\n";
+  for (const auto& [key, d] : paths) {
+    const int r = ((key >> 6) & 7) * 255 / 7, g = ((key >> 3) & 7) * 255 / 7,
+              bl = (key & 7) * 255 / 7;
+    svg << "<path stroke=\"" << Hex(r, g, bl) << "\" d=\"" << d << "\"/>\n";
+  }
+  svg << "</g>\n";
+  return drawn;
+}
+
+// The reference cameras (`refs`, in the model's top view) as squares, each
+// joined by a thin line to the model's camera of the same name.
+void DrawReferenceCameras(
+    const Reconstruction& model, const TopViewFrame& frame,
+    const std::vector<std::pair<std::string, Eigen::Vector2d>>& refs,
+    const Viewport& vp, double cam_r, std::ostringstream& svg) {
+  if (refs.empty()) return;
+  svg << "<g class=\"ref-links\">\n";
+  for (const auto& [name, q] : refs) {
+    const Image* m = model.FindImageWithName(name);
+    if (m == nullptr) continue;
+    svg << Line(vp.Map(frame.Project(m->ProjectionCenter())), vp.Map(q), "")
+        << '\n';
+  }
+  svg << "</g>\n<g class=\"ref\">\n";
+  for (const auto& [name, q] : refs) {
+    const Eigen::Vector2d s = vp.Map(q);
+    svg << "<rect x=\"" << C(s.x() - cam_r) << "\" y=\"" << C(s.y() - cam_r)
+        << "\" width=\"" << C(2 * cam_r) << "\" height=\"" << C(2 * cam_r)
+        << "\"><title>reference " << Esc(name) << "</title></rect>\n";
+  }
+  svg << "</g>\n";
+}
+
+// The model's cameras: a dot of radius `cam_r` with a stroke along the
+// viewing direction (`span`: the drawing's extent), coloured by community.
+void DrawTopViewCameras(
+    const std::vector<std::pair<const Image*, Eigen::Vector2d>>& cams,
+    const TopViewFrame& frame, const Viewport& vp, double span, double cam_r,
+    const std::map<std::string, int>& community, std::ostringstream& svg) {
+  svg << "<g class=\"cams\">\n";
+  for (const auto& [image, q] : cams) {
+    const Eigen::Vector2d s = vp.Map(q);
+    Eigen::Vector2d dir = frame.ProjectDirection(
+        image->cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ());
+    const Eigen::Vector2d tip = vp.Map(q + 0.035 * span * dir);
+    auto it = community.find(image->name);
+    const std::string color =
+        it == community.end() ? "#1f77b4" : CommunityColor(it->second);
+    svg << "<g stroke=\"" << color << "\" fill=\"" << color << "\">"
+        << Line(s, tip, "") << "<circle cx=\"" << C(s.x()) << "\" cy=\""
+        << C(s.y()) << "\" r=\"" << C(cam_r) << "\"><title>"
+        << Esc(StrCat(image->name, " (image ", image->image_id, ")",
+                      it == community.end()
+                          ? ""
+                          : StrCat(", community ", it->second)))
+        << "</title></circle></g>\n";
+  }
+}
+
+// The top view's caption: what is drawn (cameras, `drawn` points, coloured
+// by community or not, seen from above or not) and how the reference was
+// aligned.
+std::string TopViewCaption(const ReportInput& in, const Reconstruction& model,
+                           bool by_community, size_t drawn, bool along_up,
+                           bool aligned, size_t num_common) {
+  std::ostringstream out;
+  out << model.NumRegImages() << " cameras (dots with their viewing "
+      << "direction" << (by_community ? ", coloured by community" : "")
+      << ") and " << drawn << " of " << model.NumPoints3D()
+      << " points, "
+      << (along_up
+              ? "seen from above (looking down the cameras' mean up "
+                "direction)."
+              : "projected onto the plane of the two main directions of the "
+                "camera centres (the cameras disagree on which way is up).");
+  if (in.reference) {
+    if (aligned) {
+      out << " Grey squares: the reference cameras after a robust "
+             "similarity alignment on "
+          << num_common
+          << " common images; a thin line joins each camera to its "
+             "reference.";
+    } else {
+      out << " The reference could not be aligned (" << num_common
+          << " common images).";
+    }
+  }
+  return out.str();
+}
+
 std::string ModelSection(const ReportInput& in, const Reconstruction& model,
                          const std::string& title,
                          const ReportOptions& options) {
@@ -739,90 +893,22 @@ std::string ModelSection(const ReportInput& in, const Reconstruction& model,
                                   20);
   const double span = std::max(clip.max_x - clip.min_x, clip.max_y - clip.min_y);
 
-  // Points grouped by colour (3 bits per channel), one path per colour.
-  std::map<int, std::string> paths;
-  size_t drawn = 0;
-  for (const auto& [q, p] : points) {
-    if (!clip.Contains(q)) continue;
-    const Eigen::Vector2d s = vp.Map(q);
-    const int key = ((p->color(0) >> 5) << 6) | ((p->color(1) >> 5) << 3) |
-                    (p->color(2) >> 5);
-    paths[key] += "M" + C(s.x()) + " " + C(s.y()) + "h0";
-    ++drawn;
-  }
   std::ostringstream svg;
   svg << "<svg class=\"drawing\" viewBox=\"0 0 " << C(vp.width) << ' '
       << C(vp.height) << "\" role=\"img\" aria-label=\"top view\">\n";
   svg << "<rect class=\"bg\" width=\"" << C(vp.width) << "\" height=\""
-      << C(vp.height) << "\"/>\n<g class=\"points\">\n";
-  for (const auto& [key, d] : paths) {
-    const int r = ((key >> 6) & 7) * 255 / 7, g = ((key >> 3) & 7) * 255 / 7,
-              bl = (key & 7) * 255 / 7;
-    svg << "<path stroke=\"" << Hex(r, g, bl) << "\" d=\"" << d << "\"/>\n";
-  }
-  svg << "</g>\n";
+      << C(vp.height) << "\"/>\n";
+  const size_t drawn = DrawTopViewPoints(points, clip, vp, svg);
   const double cam_r = std::clamp(
       50.0 / std::sqrt(static_cast<double>(cams.size())), 2.5, 6.0);
-  if (!refs.empty()) {
-    svg << "<g class=\"ref-links\">\n";
-    for (const auto& [name, q] : refs) {
-      const Image* m = model.FindImageWithName(name);
-      if (m == nullptr) continue;
-      svg << Line(vp.Map(frame.Project(m->ProjectionCenter())), vp.Map(q), "")
-          << '\n';
-    }
-    svg << "</g>\n<g class=\"ref\">\n";
-    for (const auto& [name, q] : refs) {
-      const Eigen::Vector2d s = vp.Map(q);
-      svg << "<rect x=\"" << C(s.x() - cam_r) << "\" y=\"" << C(s.y() - cam_r)
-          << "\" width=\"" << C(2 * cam_r) << "\" height=\"" << C(2 * cam_r)
-          << "\"><title>reference " << Esc(name) << "</title></rect>\n";
-    }
-    svg << "</g>\n";
-  }
-  svg << "<g class=\"cams\">\n";
-  for (const auto& [image, q] : cams) {
-    const Eigen::Vector2d s = vp.Map(q);
-    Eigen::Vector2d dir = frame.ProjectDirection(
-        image->cam_from_world.rotation.inverse() * Eigen::Vector3d::UnitZ());
-    const Eigen::Vector2d tip = vp.Map(q + 0.035 * span * dir);
-    auto it = community.find(image->name);
-    const std::string color =
-        it == community.end() ? "#1f77b4" : CommunityColor(it->second);
-    svg << "<g stroke=\"" << color << "\" fill=\"" << color << "\">"
-        << Line(s, tip, "") << "<circle cx=\"" << C(s.x()) << "\" cy=\""
-        << C(s.y()) << "\" r=\"" << C(cam_r) << "\"><title>"
-        << Esc(StrCat(image->name, " (image ", image->image_id, ")",
-                      it == community.end()
-                          ? ""
-                          : StrCat(", community ", it->second)))
-        << "</title></circle></g>\n";
-  }
+  DrawReferenceCameras(model, frame, refs, vp, cam_r, svg);
+  DrawTopViewCameras(cams, frame, vp, span, cam_r, community, svg);
   svg << "</g>\n</svg>\n";
 
   std::ostringstream out;
   out << "<h2>" << Esc(title) << "</h2>\n<p class=\"caption\">"
-      << model.NumRegImages() << " cameras (dots with their viewing "
-      << "direction" << (community.empty() ? "" : ", coloured by community")
-      << ") and " << drawn << " of " << model.NumPoints3D()
-      << " points, "
-      << (frame.along_up
-              ? "seen from above (looking down the cameras' mean up "
-                "direction)."
-              : "projected onto the plane of the two main directions of the "
-                "camera centres (the cameras disagree on which way is up).");
-  if (in.reference) {
-    if (aligned) {
-      out << " Grey squares: the reference cameras after a robust "
-             "similarity alignment on "
-          << num_common
-          << " common images; a thin line joins each camera to its "
-             "reference.";
-    } else {
-      out << " The reference could not be aligned (" << num_common
-          << " common images).";
-    }
-  }
+      << TopViewCaption(in, model, !community.empty(), drawn,
+                        frame.along_up, aligned, num_common);
   out << "</p>\n<div class=\"figure\">\n" << svg.str() << "</div>\n";
   return out.str();
 }

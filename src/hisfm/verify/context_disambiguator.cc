@@ -11,13 +11,20 @@
 namespace hisfm {
 
 void DisambiguatorOptions::Check() const {
-  HISFM_CHECK_OPTION(grid_cells >= 2 && grid_cells <= 100);
-  HISFM_CHECK_OPTION(num_reference_pairs >= 1);
-  HISFM_CHECK_OPTION(min_relative_coverage > 0 && min_relative_coverage <= 1);
-  HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
-  HISFM_CHECK_OPTION(distinctive_significance > 0 &&
-                     distinctive_significance <= 1);
-  HISFM_CHECK_OPTION(max_scan_memory_mb >= 0);
+  HISFM_CHECK_OPTION(grid_cells,
+                     grid_cells >= 2 && grid_cells <= 100, "in [2, 100]");
+  HISFM_CHECK_OPTION(num_reference_pairs, num_reference_pairs >= 1, ">= 1");
+  HISFM_CHECK_OPTION(min_relative_coverage,
+                     min_relative_coverage > 0 && min_relative_coverage <= 1,
+                     "in (0, 1]");
+  HISFM_CHECK_OPTION(min_distinctive_ratio,
+                     min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(distinctive_significance,
+                     distinctive_significance > 0 &&
+                     distinctive_significance <= 1,
+                     "in (0, 1]");
+  HISFM_CHECK_OPTION(max_scan_memory_mb, max_scan_memory_mb >= 0, ">= 0");
 }
 
 namespace {

@@ -15,6 +15,7 @@
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/camera_projection.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -181,7 +182,7 @@ TEST(ContextDisambiguator, RejectsSyntheticPosterDoppelgangers) {
   const SyntheticScene scene = WriteSyntheticScene(dir / "database.db", 42);
   ASSERT_FALSE(scene.doppelgangers.empty());
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const Communities comm = ComputeCommunities(graph, CommunityOptions());
   ASSERT_GT(comm.NumCommunities(), 2u);
 
@@ -229,7 +230,7 @@ TEST(ContextDisambiguator, EvidenceIsSymmetricAndCached) {
   TempDir dir("hisfm-disamb");
   const SyntheticScene scene = WriteSyntheticScene(dir / "database.db", 7);
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const Communities comm = ComputeCommunities(graph, CommunityOptions());
   ContextDisambiguator d(db, graph, comm);
   const ImagePair p = *scene.doppelgangers.begin();
@@ -299,7 +300,7 @@ void CheckRealScene(const std::string& scene) {
                  << " not found (set HISFM_DATA_DIR): " << SharedDataDir();
   }
   Database db(db_path);
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const Communities comm = ComputeCommunities(graph, CommunityOptions());
   const std::map<ImagePair, int> label =
       LabelWithReference(db, graph, ReadModel(ref_path));
@@ -345,7 +346,7 @@ TEST(ContextDisambiguator, DistinctiveCueRejectsStreetDoppelgangers) {
   const street_test::Scene scene =
       street_test::Write(dir / "database.db", {16, true, 7});
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const Communities comm = ComputeCommunities(graph, CommunityOptions());
   ContextDisambiguator with_cue(db, graph, comm);
   DisambiguatorOptions coverage_only;

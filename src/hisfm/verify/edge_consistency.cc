@@ -252,12 +252,13 @@ void CountPredictions(GeometryCache& cache, const LocalModel& source,
 }  // namespace
 
 void EdgeTestOptions::Check() const {
-  HISFM_CHECK_OPTION(depth_tolerance > 0 && depth_tolerance < 1);
-  HISFM_CHECK_OPTION(min_join_points >= 1);
-  HISFM_CHECK_OPTION(join_loss_px > 0);
+  HISFM_CHECK_OPTION(depth_tolerance,
+                     depth_tolerance > 0 && depth_tolerance < 1, "in (0, 1)");
+  HISFM_CHECK_OPTION(min_join_points, min_join_points >= 1, ">= 1");
+  HISFM_CHECK_OPTION(join_loss_px, join_loss_px > 0, "> 0");
   visibility.Check();
-  HISFM_CHECK_OPTION(occlusion_cell_px > 0);
-  HISFM_CHECK_OPTION(occlusion_margin >= 0);
+  HISFM_CHECK_OPTION(occlusion_cell_px, occlusion_cell_px > 0, "> 0");
+  HISFM_CHECK_OPTION(occlusion_margin, occlusion_margin >= 0, ">= 0");
 }
 
 double EdgeEvidence::MissingFraction() const {

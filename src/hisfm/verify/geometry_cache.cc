@@ -7,7 +7,7 @@
 namespace hisfm {
 
 void GeometryCacheOptions::Check() const {
-  HISFM_CHECK_OPTION(keypoint_radius_px > 0);
+  HISFM_CHECK_OPTION(keypoint_radius_px, keypoint_radius_px > 0, "> 0");
   relative_pose.Check();
 }
 

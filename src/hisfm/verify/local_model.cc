@@ -239,19 +239,24 @@ void CheckModelConsistency(GeometryCache& cache,
 }
 
 void VisibilityOptions::Check() const {
-  HISFM_CHECK_OPTION(max_scale_change >= 1);
-  HISFM_CHECK_OPTION(max_view_angle_deg > 0 && max_view_angle_deg <= 180);
+  HISFM_CHECK_OPTION(max_scale_change, max_scale_change >= 1, ">= 1");
+  HISFM_CHECK_OPTION(max_view_angle_deg,
+                     max_view_angle_deg > 0 && max_view_angle_deg <= 180,
+                     "in (0, 180]");
 }
 
 void LocalModelOptions::Check() const {
-  HISFM_CHECK_OPTION(num_candidates >= 2);
-  HISFM_CHECK_OPTION(max_reprojection_px > 0);
-  HISFM_CHECK_OPTION(min_points >= 3);
+  HISFM_CHECK_OPTION(num_candidates, num_candidates >= 2, ">= 2");
+  HISFM_CHECK_OPTION(max_reprojection_px, max_reprojection_px > 0, "> 0");
+  HISFM_CHECK_OPTION(min_points, min_points >= 3, ">= 3");
   visibility.Check();
-  HISFM_CHECK_OPTION(coverage_cell_px > 0);
-  HISFM_CHECK_OPTION(distinctive_degree_fraction > 0);
-  HISFM_CHECK_OPTION(min_triangulation_angle_deg >= 0 &&
-                     min_triangulation_angle_deg < 90);
+  HISFM_CHECK_OPTION(coverage_cell_px, coverage_cell_px > 0, "> 0");
+  HISFM_CHECK_OPTION(distinctive_degree_fraction,
+                     distinctive_degree_fraction > 0, "> 0");
+  HISFM_CHECK_OPTION(min_triangulation_angle_deg,
+                     min_triangulation_angle_deg >= 0 &&
+                     min_triangulation_angle_deg < 90,
+                     "in [0, 90)");
 }
 
 double LocalModel::Consistency() const {

@@ -8,6 +8,7 @@
 
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/test_util.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -57,7 +58,7 @@ TEST(MatchBurstiness, KeypointDegreesCountPairsOfTheGraph) {
   TempDir dir("hisfm-burstiness");
   WriteDatabase(dir / "db.db", 4, 10, SmallPairs());
   const Database db(dir / "db.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  const ViewGraph graph = ReadViewGraph(db, 1);
   ASSERT_EQ(graph.NumEdges(), 5u);
   const KeypointDegrees d = ComputeKeypointDegrees(db, graph);
   ASSERT_EQ(d.size(), 4u);
@@ -83,7 +84,7 @@ TEST(MatchBurstiness, WeightsSumInverseSquareRootsOfDegrees) {
   TempDir dir("hisfm-burstiness");
   WriteDatabase(dir / "db.db", 4, 10, SmallPairs());
   const Database db(dir / "db.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  const ViewGraph graph = ReadViewGraph(db, 1);
   const KeypointDegrees d = ComputeKeypointDegrees(db, graph);
   const auto w = BurstinessWeights(db, graph, d);
   ASSERT_EQ(w.size(), 5u);
@@ -120,7 +121,7 @@ TEST(MatchBurstiness, RepeatedContentRanksBelowUniqueContent) {
   TempDir dir("hisfm-burstiness");
   WriteDatabase(dir / "db.db", n, 40, pairs);
   const Database db(dir / "db.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  const ViewGraph graph = ReadViewGraph(db, 1);
   ASSERT_EQ(graph.NumEdges(), 15u);
   const KeypointDegrees d = ComputeKeypointDegrees(db, graph);
   // The pattern's keypoints are inliers of every non-adjacent pair.

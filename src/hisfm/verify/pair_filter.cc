@@ -8,22 +8,209 @@
 #include "hisfm/util/parallel.h"
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/inlier_coverage.h"
-#include "hisfm/verify/track_consistency.h"
 
 namespace hisfm {
 
 void PairFilterOptions::Check() const {
-  HISFM_CHECK_OPTION(min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1);
-  HISFM_CHECK_OPTION(distinctive_significance > 0 &&
-                     distinctive_significance <= 1);
-  HISFM_CHECK_OPTION(min_three_view_consistency >= 0 &&
-                     min_three_view_consistency <= 1);
-  HISFM_CHECK_OPTION(num_third_views >= 1);
+  HISFM_CHECK_OPTION(min_distinctive_ratio,
+                     min_distinctive_ratio >= 0 && min_distinctive_ratio <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(distinctive_significance,
+                     distinctive_significance > 0 &&
+                     distinctive_significance <= 1,
+                     "in (0, 1]");
+  HISFM_CHECK_OPTION(min_three_view_consistency,
+                     min_three_view_consistency >= 0 &&
+                     min_three_view_consistency <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(num_third_views, num_third_views >= 1, ">= 1");
   three_view.Check();
-  HISFM_CHECK_OPTION(min_relative_coverage >= 0 && min_relative_coverage <= 1);
-  HISFM_CHECK_OPTION(num_coverage_pairs >= 2);
-  HISFM_CHECK_OPTION(coverage_grid_cells >= 2 && coverage_grid_cells <= 100);
-  HISFM_CHECK_OPTION(num_threads >= 0);
+  HISFM_CHECK_OPTION(min_relative_coverage,
+                     min_relative_coverage >= 0 && min_relative_coverage <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(num_coverage_pairs, num_coverage_pairs >= 2, ">= 2");
+  HISFM_CHECK_OPTION(coverage_grid_cells,
+                     coverage_grid_cells >= 2 && coverage_grid_cells <= 100,
+                     "in [2, 100]");
+  HISFM_CHECK_OPTION(num_threads, num_threads >= 0, ">= 0");
+}
+
+PairTestResult TestDistinctiveSupport(
+    const std::vector<ViewGraphEdge>& edges,
+    const std::vector<DistinctiveSupport>& support,
+    const PairFilterOptions& options) {
+  ThrowUnless(support.size() == edges.size(),
+              "TestDistinctiveSupport: one support per edge");
+  PairTestResult result;
+  result.num_judged = edges.size();
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const ViewGraphEdge& e = edges[i];
+    const DistinctiveSupport& s = support[i];
+    if (options.min_distinctive_ratio > 0 &&
+        s.Deficient(options.min_distinctive_ratio,
+                    options.distinctive_significance)) {
+      result.removed.push_back({e.pair, e.weight, "distinctive", s.ratio});
+      continue;
+    }
+    result.kept.push_back(e);
+  }
+  return result;
+}
+
+namespace {
+
+// Each image's neighbours among `edges` as (weight, neighbour), the most
+// distinctive inliers first, then the strongest, then the smallest id: the
+// third views of test B. The pairs whose unique content vouches best for
+// their geometry come first (a mixed pair, with true unique and false
+// repeated matches, makes a misleading third view, and it holds fewer
+// distinctive inliers than a true pair of the same strength).
+std::unordered_map<ImageId, std::vector<std::pair<uint32_t, ImageId>>>
+RankThirdViews(const std::vector<ViewGraphEdge>& edges,
+               const DistinctiveCounts& num_distinctive) {
+  std::unordered_map<ImageId, std::vector<std::pair<uint32_t, ImageId>>>
+      neighbours;
+  for (const ViewGraphEdge& e : edges) {
+    neighbours[e.pair.image_id1].push_back({e.weight, e.pair.image_id2});
+    neighbours[e.pair.image_id2].push_back({e.weight, e.pair.image_id1});
+  }
+  for (auto& [id, list] : neighbours) {
+    const ImageId x = id;
+    auto distinctive = [&](ImageId t) {
+      auto it = num_distinctive.find(ImagePair(x, t));
+      return it == num_distinctive.end() ? 0u : it->second;
+    };
+    std::sort(list.begin(), list.end(), [&](const auto& a, const auto& b) {
+      const uint32_t da = distinctive(a.second);
+      const uint32_t db = distinctive(b.second);
+      if (da != db) return da > db;
+      return a.first > b.first || (a.first == b.first && a.second < b.second);
+    });
+  }
+  return neighbours;
+}
+
+}  // namespace
+
+PairTestResult TestThreeViewConsistency(
+    const Database& database, const TrackConsistency& tracks,
+    const std::vector<ViewGraphEdge>& edges,
+    const DistinctiveCounts& num_distinctive,
+    const PairFilterOptions& options) {
+  PairTestResult result;
+  if (options.min_three_view_consistency <= 0) {
+    result.kept = edges;
+    return result;
+  }
+  const auto neighbours = RankThirdViews(edges, num_distinctive);
+  // Each pair is judged on its own (the shared cache is thread-safe), in
+  // parallel; the verdicts are then collected in edge order.
+  PairGeometryCache cache(database);
+  struct Verdict {
+    bool judged = false;
+    double fraction = 1.0;
+  };
+  std::vector<Verdict> verdicts(edges.size());
+  ParallelFor(edges.size(), options.num_threads, [&](size_t i) {
+    const ViewGraphEdge& e = edges[i];
+    const std::shared_ptr<const PairGeometryCache::PairGeometry> xy =
+        cache.Pair(e.pair, /*keep=*/false);
+    bool judged = false;
+    double fraction = 1.0;
+    for (const ImageId x : {e.pair.image_id1, e.pair.image_id2}) {
+      const ImageId y = x == e.pair.image_id1 ? e.pair.image_id2
+                                              : e.pair.image_id1;
+      bool side_judged = false;
+      double side = 0.0;
+      int used = 0;
+      for (const auto& [weight, t] : neighbours.at(x)) {
+        if (t == y) continue;
+        if (used++ >= options.num_third_views) break;
+        const ThreeViewResult r = MeasureThreeViewConsistency(
+            cache, tracks, *xy, x, t, options.three_view);
+        if (!r.judged) continue;
+        side_judged = true;
+        side = std::max(side, r.fraction);
+        // A side that passes cannot fail with more third views, and the
+        // pair's value (its worse side) is recorded only when it fails.
+        if (side >= options.min_three_view_consistency) break;
+      }
+      if (side_judged) {
+        judged = true;
+        fraction = std::min(fraction, side);
+      }
+    }
+    verdicts[i] = {judged, fraction};
+  }, /*grain=*/16);
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const ViewGraphEdge& e = edges[i];
+    const bool judged = verdicts[i].judged;
+    const double fraction = verdicts[i].fraction;
+    result.num_judged += judged;
+    if (judged && fraction < options.min_three_view_consistency) {
+      result.removed.push_back({e.pair, e.weight, "three_view", fraction});
+      continue;
+    }
+    result.kept.push_back(e);
+  }
+  return result;
+}
+
+PairTestResult TestCoverageDominance(const Database& database,
+                                     const std::vector<ImageId>& images,
+                                     const std::vector<ViewGraphEdge>& edges,
+                                     const PairFilterOptions& options) {
+  PairTestResult result;
+  result.num_judged = edges.size();
+  if (options.min_relative_coverage <= 0) {
+    result.kept = edges;
+    return result;
+  }
+  const ViewGraph graph = ViewGraph::FromEdges(images, edges);
+  CoverageGrid grid(database, options.coverage_grid_cells);
+  std::unordered_map<ImagePair, double, ImagePairHash> dominated;
+  for (ImageId x : graph.Images()) {
+    std::vector<std::pair<uint32_t, ImageId>> strongest;
+    for (size_t e : graph.IncidentEdges(graph.IndexOf(x))) {
+      strongest.push_back({graph.Edges()[e].weight, graph.OtherEnd(e, x)});
+    }
+    std::sort(strongest.begin(), strongest.end(),
+              [](const auto& a, const auto& b) {
+                return a.first > b.first ||
+                       (a.first == b.first && a.second < b.second);
+              });
+    if (strongest.size() > static_cast<size_t>(options.num_coverage_pairs)) {
+      strongest.resize(options.num_coverage_pairs);
+    }
+    std::vector<int> cells;
+    size_t best = 0;
+    for (size_t k = 0; k < strongest.size(); ++k) {
+      const std::vector<FeatureMatch> inliers =
+          database.ReadInlierMatches(x, strongest[k].second);
+      cells.push_back(grid.CoveredCells(x, inliers, x < strongest[k].second));
+      if (cells[k] > cells[best]) best = k;
+    }
+    for (size_t k = 0; k < best; ++k) {
+      const double relative =
+          static_cast<double>(cells[k]) / std::max(1, cells[best]);
+      if (relative < options.min_relative_coverage) {
+        const ImagePair p(x, strongest[k].second);
+        auto it = dominated.find(p);
+        if (it == dominated.end() || it->second > relative) {
+          dominated[p] = relative;
+        }
+      }
+    }
+  }
+  for (const ViewGraphEdge& e : edges) {
+    auto it = dominated.find(e.pair);
+    if (it == dominated.end()) {
+      result.kept.push_back(e);
+      continue;
+    }
+    result.removed.push_back({e.pair, e.weight, "coverage", it->second});
+  }
+  return result;
 }
 
 PairFilterResult FilterAmbiguousPairs(const Database& database,
@@ -55,168 +242,40 @@ PairFilterResult FilterAmbiguousPairs(const Database& database,
   HISFM_LOG_DEBUG("pair filter: tracks of {} pairs ({:.2f} s)",
                   graph.NumEdges(), timer.ElapsedSeconds());
 
-  // Test A.
-  std::vector<ViewGraphEdge> kept_a;
-  // Distinctive inliers of each pair kept by A: ranks third views for B.
-  std::unordered_map<ImagePair, uint32_t, ImagePairHash> num_distinctive;
+  std::vector<DistinctiveSupport> support;
+  support.reserve(graph.NumEdges());
   for (size_t i = 0; i < graph.NumEdges(); ++i) {
-    const ViewGraphEdge& e = graph.Edges()[i];
-    const DistinctiveSupport s =
-        tracks.Support(e.pair, num_inliers[i], first_keypoints, i);
-    if (options.min_distinctive_ratio > 0 &&
-        s.Deficient(options.min_distinctive_ratio,
-                    options.distinctive_significance)) {
-      result.removed.push_back({e.pair, e.weight, "distinctive", s.ratio});
-      ++result.num_removed_distinctive;
-      continue;
-    }
-    num_distinctive[e.pair] = s.num_distinctive;
-    kept_a.push_back(e);
+    support.push_back(tracks.Support(graph.Edges()[i].pair, num_inliers[i],
+                                     first_keypoints, i));
   }
-
+  PairTestResult a = TestDistinctiveSupport(graph.Edges(), support, options);
+  // Distinctive inliers of each pair kept by A: ranks third views for B.
+  DistinctiveCounts num_distinctive;
+  for (size_t i = 0; i < graph.NumEdges(); ++i) {
+    num_distinctive[graph.Edges()[i].pair] = support[i].num_distinctive;
+  }
+  for (const RemovedPair& r : a.removed) num_distinctive.erase(r.pair);
   HISFM_LOG_DEBUG("pair filter: test A kept {} pairs ({:.2f} s)",
-                  kept_a.size(), timer.ElapsedSeconds());
+                  a.kept.size(), timer.ElapsedSeconds());
 
-  // Test B on the pairs kept by A. The third views of an image are its
-  // neighbours (among those pairs) holding the most distinctive inliers:
-  // the pairs whose unique content vouches best for their geometry (a mixed
-  // pair, with true unique and false repeated matches, makes a misleading
-  // third view, and it holds fewer distinctive inliers than a true pair of
-  // the same strength).
-  std::vector<ViewGraphEdge> kept;
-  if (options.min_three_view_consistency <= 0) {
-    kept = kept_a;
-  } else {
-    std::unordered_map<ImageId, std::vector<std::pair<uint32_t, ImageId>>>
-        neighbours;
-    for (const ViewGraphEdge& e : kept_a) {
-      neighbours[e.pair.image_id1].push_back({e.weight, e.pair.image_id2});
-      neighbours[e.pair.image_id2].push_back({e.weight, e.pair.image_id1});
-    }
-    for (auto& [id, list] : neighbours) {
-      const ImageId x = id;
-      auto distinctive = [&](ImageId t) {
-        auto it = num_distinctive.find(ImagePair(x, t));
-        return it == num_distinctive.end() ? 0u : it->second;
-      };
-      std::sort(list.begin(), list.end(), [&](const auto& a, const auto& b) {
-        const uint32_t da = distinctive(a.second);
-        const uint32_t db = distinctive(b.second);
-        if (da != db) return da > db;
-        return a.first > b.first || (a.first == b.first && a.second < b.second);
-      });
-    }
-    // Each pair is judged on its own (the shared cache is thread-safe), in
-    // parallel; the verdicts are then collected in edge order.
-    PairGeometryCache cache(database);
-    struct Verdict {
-      bool judged = false;
-      double fraction = 1.0;
-    };
-    std::vector<Verdict> verdicts(kept_a.size());
-    ParallelFor(kept_a.size(), options.num_threads, [&](size_t i) {
-      const ViewGraphEdge& e = kept_a[i];
-      const std::shared_ptr<const PairGeometryCache::PairGeometry> xy =
-          cache.Pair(e.pair, /*keep=*/false);
-      bool judged = false;
-      double fraction = 1.0;
-      for (const ImageId x : {e.pair.image_id1, e.pair.image_id2}) {
-        const ImageId y = x == e.pair.image_id1 ? e.pair.image_id2
-                                                : e.pair.image_id1;
-        bool side_judged = false;
-        double side = 0.0;
-        int used = 0;
-        for (const auto& [weight, t] : neighbours.at(x)) {
-          if (t == y) continue;
-          if (used++ >= options.num_third_views) break;
-          const ThreeViewResult r = MeasureThreeViewConsistency(
-              cache, tracks, *xy, x, t, options.three_view);
-          if (!r.judged) continue;
-          side_judged = true;
-          side = std::max(side, r.fraction);
-          // A side that passes cannot fail with more third views, and the
-          // pair's value (its worse side) is recorded only when it fails.
-          if (side >= options.min_three_view_consistency) break;
-        }
-        if (side_judged) {
-          judged = true;
-          fraction = std::min(fraction, side);
-        }
-      }
-      verdicts[i] = {judged, fraction};
-    }, /*grain=*/16);
-    for (size_t i = 0; i < kept_a.size(); ++i) {
-      const ViewGraphEdge& e = kept_a[i];
-      const bool judged = verdicts[i].judged;
-      const double fraction = verdicts[i].fraction;
-      result.num_three_view_judged += judged;
-      if (judged && fraction < options.min_three_view_consistency) {
-        result.removed.push_back({e.pair, e.weight, "three_view", fraction});
-        ++result.num_removed_three_view;
-        continue;
-      }
-      kept.push_back(e);
-    }
+  PairTestResult b =
+      TestThreeViewConsistency(database, tracks, a.kept, num_distinctive,
+                               options);
+  HISFM_LOG_DEBUG("pair filter: test B kept {} pairs ({:.2f} s)",
+                  b.kept.size(), timer.ElapsedSeconds());
+
+  PairTestResult c =
+      TestCoverageDominance(database, graph.Images(), b.kept, options);
+
+  result.num_removed_distinctive = a.removed.size();
+  result.num_removed_three_view = b.removed.size();
+  result.num_removed_coverage = c.removed.size();
+  result.num_three_view_judged = b.num_judged;
+  for (PairTestResult* t : {&a, &b, &c}) {
+    result.removed.insert(result.removed.end(), t->removed.begin(),
+                          t->removed.end());
   }
-
-  HISFM_LOG_DEBUG("pair filter: test B kept {} pairs ({:.2f} s)", kept.size(),
-                  timer.ElapsedSeconds());
-
-  // Test C on the pairs kept by A and B.
-  if (options.min_relative_coverage > 0) {
-    const ViewGraph kept_graph = ViewGraph::FromEdges(graph.Images(), kept);
-    CoverageGrid grid(database, options.coverage_grid_cells);
-    std::unordered_map<ImagePair, double, ImagePairHash> dominated;
-    for (ImageId x : kept_graph.Images()) {
-      std::vector<std::pair<uint32_t, ImageId>> strongest;
-      for (size_t e : kept_graph.IncidentEdges(kept_graph.IndexOf(x))) {
-        strongest.push_back(
-            {kept_graph.Edges()[e].weight, kept_graph.OtherEnd(e, x)});
-      }
-      std::sort(strongest.begin(), strongest.end(),
-                [](const auto& a, const auto& b) {
-                  return a.first > b.first ||
-                         (a.first == b.first && a.second < b.second);
-                });
-      if (strongest.size() >
-          static_cast<size_t>(options.num_coverage_pairs)) {
-        strongest.resize(options.num_coverage_pairs);
-      }
-      std::vector<int> cells;
-      size_t best = 0;
-      for (size_t k = 0; k < strongest.size(); ++k) {
-        const std::vector<FeatureMatch> inliers =
-            database.ReadInlierMatches(x, strongest[k].second);
-        cells.push_back(
-            grid.CoveredCells(x, inliers, x < strongest[k].second));
-        if (cells[k] > cells[best]) best = k;
-      }
-      for (size_t k = 0; k < best; ++k) {
-        const double relative =
-            static_cast<double>(cells[k]) / std::max(1, cells[best]);
-        if (relative < options.min_relative_coverage) {
-          const ImagePair p(x, strongest[k].second);
-          auto it = dominated.find(p);
-          if (it == dominated.end() || it->second > relative) {
-            dominated[p] = relative;
-          }
-        }
-      }
-    }
-    std::vector<ViewGraphEdge> kept_c;
-    for (const ViewGraphEdge& e : kept) {
-      auto it = dominated.find(e.pair);
-      if (it == dominated.end()) {
-        kept_c.push_back(e);
-        continue;
-      }
-      result.removed.push_back({e.pair, e.weight, "coverage", it->second});
-      ++result.num_removed_coverage;
-    }
-    kept.swap(kept_c);
-  }
-
-  result.graph = ViewGraph::FromEdges(graph.Images(), kept);
+  result.graph = ViewGraph::FromEdges(graph.Images(), c.kept);
   for (ImageId id : graph.Images()) {
     if (!graph.IncidentEdges(graph.IndexOf(id)).empty() &&
         result.graph.IncidentEdges(result.graph.IndexOf(id)).empty()) {

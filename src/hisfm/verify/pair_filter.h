@@ -44,11 +44,13 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/io/database.h"
 #include "hisfm/verify/three_view_consistency.h"
+#include "hisfm/verify/track_consistency.h"
 
 namespace hisfm {
 
@@ -108,6 +110,50 @@ struct PairFilterResult {
   size_t num_images_isolated = 0;
   double seconds = 0;
 };
+
+/// The outcome of one of the tests on a list of pairs.
+struct PairTestResult {
+  /// The pairs that pass, in input order.
+  std::vector<ViewGraphEdge> kept;
+  /// The pairs that fail, in input order.
+  std::vector<RemovedPair> removed;
+  /// Pairs the test could judge (test B; A and C judge every pair).
+  size_t num_judged = 0;
+};
+
+/// Distinctive inliers of each pair (DistinctiveSupport::num_distinctive).
+using DistinctiveCounts =
+    std::unordered_map<ImagePair, uint32_t, ImagePairHash>;
+
+/// Test A: removes the pairs whose distinctive support (`support[i]` for
+/// `edges[i]`) is deficient (options.min_distinctive_ratio,
+/// options.distinctive_significance); keeps every pair if
+/// min_distinctive_ratio is 0.
+PairTestResult TestDistinctiveSupport(
+    const std::vector<ViewGraphEdge>& edges,
+    const std::vector<DistinctiveSupport>& support,
+    const PairFilterOptions& options);
+
+/// Test B: removes the judged pairs whose three-view consistent fraction is
+/// below options.min_three_view_consistency; each image's third views are
+/// its neighbours among `edges` with the most distinctive inliers
+/// (`num_distinctive`, 0 if absent), then the strongest. Keeps every pair
+/// (none judged) if min_three_view_consistency is 0.
+PairTestResult TestThreeViewConsistency(
+    const Database& database, const TrackConsistency& tracks,
+    const std::vector<ViewGraphEdge>& edges,
+    const DistinctiveCounts& num_distinctive,
+    const PairFilterOptions& options);
+
+/// Test C: removes the pairs that outrank, among an image's
+/// options.num_coverage_pairs strongest pairs of `edges`, its best-covering
+/// pair while covering less than options.min_relative_coverage of what it
+/// covers. `images` are the graph's images. Keeps every pair if
+/// min_relative_coverage is 0.
+PairTestResult TestCoverageDominance(const Database& database,
+                                     const std::vector<ImageId>& images,
+                                     const std::vector<ViewGraphEdge>& edges,
+                                     const PairFilterOptions& options);
 
 /// Runs tests A, B and C on every edge of `graph` (see the file comment).
 PairFilterResult FilterAmbiguousPairs(const Database& database,

@@ -166,13 +166,16 @@ void Refine(const std::vector<Eigen::Vector2d>& x1,
 }  // namespace
 
 void RelativePoseOptions::Check() const {
-  HISFM_CHECK_OPTION(max_error_px > 0);
-  HISFM_CHECK_OPTION(support_error_px > 0);
-  HISFM_CHECK_OPTION(num_samples >= 1);
-  HISFM_CHECK_OPTION(num_eight_point_samples >= 0);
-  HISFM_CHECK_OPTION(num_refinements >= 0);
-  HISFM_CHECK_OPTION(min_cheirality_angle_deg >= 0 &&
-                     min_cheirality_angle_deg < 90);
+  HISFM_CHECK_OPTION(max_error_px, max_error_px > 0, "> 0");
+  HISFM_CHECK_OPTION(support_error_px, support_error_px > 0, "> 0");
+  HISFM_CHECK_OPTION(num_samples, num_samples >= 1, ">= 1");
+  HISFM_CHECK_OPTION(num_eight_point_samples,
+                     num_eight_point_samples >= 0, ">= 0");
+  HISFM_CHECK_OPTION(num_refinements, num_refinements >= 0, ">= 0");
+  HISFM_CHECK_OPTION(min_cheirality_angle_deg,
+                     min_cheirality_angle_deg >= 0 &&
+                     min_cheirality_angle_deg < 90,
+                     "in [0, 90)");
 }
 
 bool SupportsPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,

@@ -27,6 +27,7 @@
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/test_util.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace street_test {
@@ -228,7 +229,7 @@ struct Opened {
   TempDir dir{"hisfm-street"};
   Scene scene;
   Database db{dir / "database.db"};
-  ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  ViewGraph graph = ReadViewGraph(db, 15);
 };
 
 }  // namespace street_test

@@ -16,11 +16,13 @@ constexpr size_t kMaxPoseVotes = 100;
 }  // namespace
 
 void ThreeViewOptions::Check() const {
-  HISFM_CHECK_OPTION(max_error_px > 0);
-  HISFM_CHECK_OPTION(min_triangulation_angle_deg >= 0 &&
-                     min_triangulation_angle_deg < 90);
-  HISFM_CHECK_OPTION(min_scale_points >= 1);
-  HISFM_CHECK_OPTION(max_shared_points >= 0);
+  HISFM_CHECK_OPTION(max_error_px, max_error_px > 0, "> 0");
+  HISFM_CHECK_OPTION(min_triangulation_angle_deg,
+                     min_triangulation_angle_deg >= 0 &&
+                     min_triangulation_angle_deg < 90,
+                     "in [0, 90)");
+  HISFM_CHECK_OPTION(min_scale_points, min_scale_points >= 1, ">= 1");
+  HISFM_CHECK_OPTION(max_shared_points, max_shared_points >= 0, ">= 0");
 }
 
 PairGeometryCache::PairGeometryCache(const Database& database)

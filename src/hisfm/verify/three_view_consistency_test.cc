@@ -5,6 +5,7 @@
 #include "hisfm/util/error.h"
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -122,7 +123,7 @@ TEST(ThreeViewConsistency, RejectsAnImageOutsideThePair) {
   TempDir dir("hisfm-threeview");
   street_test::Write(dir / "database.db", {6, true, 1});
   Database db(dir / "database.db");
-  const TrackConsistency tracks(db, ViewGraph::FromDatabase(db, 15));
+  const TrackConsistency tracks(db, ReadViewGraph(db, 15));
   PairGeometryCache cache(db);
   const auto pair = cache.Pair(ImagePair(1, 2));
   EXPECT_TRUE(pair->has_pose);

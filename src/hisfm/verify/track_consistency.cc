@@ -149,11 +149,6 @@ double PoissonCdf(uint32_t k, double lambda) {
 }  // namespace
 
 DistinctiveSupport TrackConsistency::Support(
-    const TwoViewGeometry& geometry) const {
-  return Support(geometry.pair, geometry.inlier_matches);
-}
-
-DistinctiveSupport TrackConsistency::Support(
     const ImagePair& pair, FeatureMatchSpan inliers) const {
   uint32_t num_distinctive = 0;
   auto it = images_.find(pair.image_id1);

@@ -118,11 +118,8 @@ class TrackConsistency {
   /// Over all matched keypoints: fraction in inconsistent tracks.
   double InconsistentFraction() const;
 
-  /// The distinctive support of a pair's inliers (oriented like
-  /// `geometry`).
-  DistinctiveSupport Support(const TwoViewGeometry& geometry) const;
-  /// Same for inlier matches oriented like `pair` (idx1 indexes
-  /// pair.image_id1).
+  /// The distinctive support of a pair's inlier matches, oriented like
+  /// `pair` (idx1 indexes pair.image_id1).
   DistinctiveSupport Support(const ImagePair& pair,
                              FeatureMatchSpan inliers) const;
   /// Same for a pair with `num_inliers` inliers whose keypoints in

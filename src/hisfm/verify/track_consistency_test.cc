@@ -10,6 +10,7 @@
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/test_util.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -44,7 +45,7 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   TempDir dir("hisfm-tracks");
   WriteHandMadeDatabase(dir / "database.db");
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 1);
+  const ViewGraph graph = ReadViewGraph(db, 1);
   ASSERT_EQ(graph.NumEdges(), 3u);
   const TrackConsistency tracks(db, graph);
   EXPECT_TRUE(tracks.IsMatched(1, 0));
@@ -64,7 +65,7 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   EXPECT_NEAR(tracks.InconsistentFraction(), 6.0 / 8.0, 1e-12);
 
   const TwoViewGeometry g13 = db.ReadTwoViewGeometry(1, 3);
-  DistinctiveSupport s = tracks.Support(g13);
+  DistinctiveSupport s = tracks.Support(g13.pair, g13.inlier_matches);
   EXPECT_EQ(s.num_inliers, 2u);
   EXPECT_EQ(s.num_distinctive, 1u);
   EXPECT_NEAR(s.image_fraction, 1.0 / 3.0, 1e-12);  // both images: 1 of 3
@@ -73,7 +74,8 @@ TEST(TrackConsistency, MarksTracksWithTwoKeypointsOfOneImage) {
   EXPECT_EQ(s.p_value, 1.0);         // no shortfall
   EXPECT_FALSE(s.Deficient(0.5, 0.01));
   // Pair (1, 2): nothing distinctive expected from image 2.
-  s = tracks.Support(db.ReadTwoViewGeometry(1, 2));
+  const TwoViewGeometry g12 = db.ReadTwoViewGeometry(1, 2);
+  s = tracks.Support(g12.pair, g12.inlier_matches);
   EXPECT_EQ(s.expected, 0.0);
   EXPECT_EQ(s.ratio, 1.0);
   EXPECT_EQ(s.p_value, 1.0);
@@ -118,7 +120,7 @@ TEST(TrackConsistency, RandomGraphsAgreeWithTheDefinition) {
     KeypointMultisets first_keypoints;
     std::map<ImagePair, size_t> multiset_of;
     const TrackConsistency tracks(
-        db, ViewGraph::FromDatabase(db, 1),
+        db, ReadViewGraph(db, 1),
         [&](const ImagePair& pair, FeatureMatchSpan inliers) {
           multiset_of[pair] = first_keypoints.Add(num_keypoints, inliers);
         });
@@ -197,7 +199,7 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   const street_test::Scene scene =
       street_test::Write(dir / "database.db", {16, true, 3});
   Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   const TrackConsistency tracks(db, graph);
   size_t repeated = 0, repeated_distinctive = 0;
   size_t unique = 0, unique_distinctive = 0;
@@ -225,8 +227,9 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   // the Poisson tail is exact for a zero count.
   int num_pure = 0;
   for (const auto& [pair, shift] : scene.shift) {
-    const DistinctiveSupport s =
-        tracks.Support(db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2));
+    const TwoViewGeometry g =
+        db.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
+    const DistinctiveSupport s = tracks.Support(g.pair, g.inlier_matches);
     if (shift == 0) {
       EXPECT_FALSE(s.Deficient(0.5, 0.01)) << pair.image_id1 << "-"
                                            << pair.image_id2;
@@ -245,7 +248,7 @@ TEST(TrackConsistency, SeparatesRepeatedFacadesFromUniqueContent) {
   street_test::Write(control_dir / "database.db", {16, false, 3});
   Database control_db(control_dir / "database.db");
   const TrackConsistency control(
-      control_db, ViewGraph::FromDatabase(control_db, 15));
+      control_db, ReadViewGraph(control_db, 15));
   EXPECT_LT(control.InconsistentFraction(), 0.02);
 }
 

@@ -9,10 +9,14 @@
 namespace hisfm {
 
 void VerifiedHierarchyOptions::Check() const {
-  HISFM_CHECK_OPTION(max_rounds >= 1);
-  HISFM_CHECK_OPTION(trusted_threshold >= 0 && trusted_threshold <= 1);
-  HISFM_CHECK_OPTION(support_edges >= 0);
-  HISFM_CHECK_OPTION(support_threshold >= 0 && support_threshold <= 1);
+  HISFM_CHECK_OPTION(max_rounds, max_rounds >= 1, ">= 1");
+  HISFM_CHECK_OPTION(trusted_threshold,
+                     trusted_threshold >= 0 && trusted_threshold <= 1,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(support_edges, support_edges >= 0, ">= 0");
+  HISFM_CHECK_OPTION(support_threshold,
+                     support_threshold >= 0 && support_threshold <= 1,
+                     "in [0, 1]");
 }
 
 std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {

@@ -9,6 +9,7 @@
 
 #include "hisfm/util/error.h"
 #include "hisfm/verify/street_test_scene.h"
+#include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
 namespace {
@@ -284,7 +285,7 @@ TEST(VerifiedHierarchyOptions, BuildRefusesInvalidOptions) {
   TempDir dir("hisfm-verified-hierarchy");
   street_test::Write(dir / "database.db", {4, true, 1});
   const Database db(dir / "database.db");
-  const ViewGraph graph = ViewGraph::FromDatabase(db, 15);
+  const ViewGraph graph = ReadViewGraph(db, 15);
   MultiViewVerifier verifier(db, graph);
   VerifiedHierarchyOptions options;
   options.max_rounds = 0;

@@ -13,7 +13,7 @@ bool StartsWith(const std::string& s, const std::string& prefix) {
 }  // namespace
 
 void VerifierOptions::Check() const {
-  HISFM_CHECK_OPTION(command_batch_size >= 1);
+  HISFM_CHECK_OPTION(command_batch_size, command_batch_size >= 1, ">= 1");
   builtin.Check();
   multiview.Check();
   verified_hierarchy.Check();

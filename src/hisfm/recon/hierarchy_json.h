@@ -1,0 +1,21 @@
+// The hierarchy as JSON (view_graph.json, `hisfm view_graph`, the report):
+// the graph layer itself knows no JSON.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <unordered_map>
+
+#include "hisfm/graph/hierarchy.h"
+#include "hisfm/graph/view_graph.h"
+
+namespace hisfm {
+
+/// JSON description: community of each image, skeleton bridges with scores,
+/// intra-community skeleton edges, leaf edges, rejected bridges, components.
+/// `image_names` maps ids to names (may be empty).
+nlohmann::json HierarchyToJson(
+    const Hierarchy& hierarchy, const ViewGraph& graph,
+    const std::unordered_map<ImageId, std::string>& image_names);
+
+}  // namespace hisfm
