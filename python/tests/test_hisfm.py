@@ -56,6 +56,27 @@ def test_view_graph_matches_the_command(scene):
     assert graph["summary"]["components"] == expected["summary"]["components"]
 
 
+def test_bridges_after_the_first_tree_carry_their_cycle_error(scene):
+    database = scene / "database.db"
+    graph = hisfm.view_graph(database, num_trees=2, log_level="warn")
+    code, stdout, stderr = run_hisfm("view_graph", "--database_path", database,
+                                     "--HiSfM.num_trees", 2, "--log_level", "warn")
+    assert code == 0, stderr
+    expected = json.loads(stdout)["skeleton_bridges"]
+    bridges = graph["skeleton_bridges"]
+    errors = bridges["cycle_errors_deg"]
+    assert errors.shape == (len(expected),)
+    for error, tree, e in zip(errors, bridges["trees"], expected):
+        if tree == 0:
+            assert np.isnan(error), "the first tree closes no cycle"
+        if "cycle_error_deg" in e:
+            assert error == pytest.approx(e["cycle_error_deg"])
+            assert 0 <= error <= 45
+        else:
+            assert np.isnan(error)
+    assert (bridges["trees"] == 1).any() and not np.isnan(errors).all()
+
+
 def test_options_by_keyword_change_the_result(scene):
     database = scene / "database.db"
     one = hisfm.view_graph(database, top_k=1, log_level="warn")

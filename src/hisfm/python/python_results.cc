@@ -61,7 +61,7 @@ double NumberOrNaN(const nlohmann::json& value) {
 // An edge list of HierarchyToJson as columns.
 py::dict EdgeColumns(const nlohmann::json& edges) {
   std::vector<uint32_t> pairs, inliers, communities;
-  std::vector<double> scores;
+  std::vector<double> scores, cycle_errors;
   std::vector<int64_t> trees;
   py::list roles;
   const bool bridges = !edges.empty() && edges[0].contains("score");
@@ -73,6 +73,9 @@ py::dict EdgeColumns(const nlohmann::json& edges) {
     communities.push_back(e["community1"].get<uint32_t>());
     communities.push_back(e["community2"].get<uint32_t>());
     scores.push_back(NumberOrNaN(e["score"]));
+    cycle_errors.push_back(e.contains("cycle_error_deg")
+                               ? NumberOrNaN(e["cycle_error_deg"])
+                               : std::numeric_limits<double>::quiet_NaN());
     trees.push_back(e["tree"].is_number() ? e["tree"].get<int64_t>() : -1);
     roles.append(py::str(e["role"].get<std::string>()));
   }
@@ -82,6 +85,7 @@ py::dict EdgeColumns(const nlohmann::json& edges) {
   if (bridges || edges.empty()) {
     out["communities"] = Array(communities, 2);
     out["scores"] = Array(scores);
+    out["cycle_errors_deg"] = Array(cycle_errors);
     out["trees"] = Array(trees);
     out["roles"] = roles;
   }
