@@ -50,7 +50,8 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "(>= verify_threshold: off)");
   visit("--HiSfM.max_cycle_rotation_deg", h.skeleton.max_cycle_rotation_deg,
         "A bridge closing a cycle with the skeleton is taken only if the "
-        "cycle's rotations compose within this (degrees; 0: off)");
+        "cycle's rotations compose within this (degrees; 0: off; verifiers "
+        "that report no rotations, e.g. scores: and command:, skip it)");
   visit("--HiSfM.leaf_edges", h.leaves.leaf_edges,
         "Edges per leaf to skeletal images of its community");
   visit("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,

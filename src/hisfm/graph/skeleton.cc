@@ -238,8 +238,9 @@ void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges,
                                    AdmitFn&& admit, TakeFn&& take) {
   UnionFind all(m);
   for (const Bridge& b : bridges) all.Union(b.c1, b.c2);
-  // Bridges that may still be taken: not rejected yet (a rejected one would
-  // only be skipped again), in weight order; and the used community pairs,
+  // Bridges that may still be taken: not rejected for their score (a
+  // rejected one would only be skipped again; admit() also refuses those
+  // its cycle rejected), in weight order; and the used community pairs,
   // ascending.
   std::vector<size_t> open;
   for (size_t k = 0; k < bridges.size(); ++k) {
@@ -306,7 +307,8 @@ class SkeletonBuilder {
                   BridgeScorer* scorer, const SkeletonOptions& options)
       : options_(options),
         m_(communities.NumCommunities()),
-        scorer_(scorer) {
+        scorer_(scorer),
+        held_communities_(communities.NumCommunities()) {
     skeleton_.num_trees = options.NumTreesFor(graph.NumImages());
     for (const ViewGraphEdge& e : graph.Edges()) {
       const CommunityId a = communities.Of(e.pair.image_id1);
@@ -365,6 +367,7 @@ class SkeletonBuilder {
       skeleton_.bridges.back().cycle_error_deg = error->second;
     }
     Link(bridges_[k].pair);
+    held_communities_.Union(bridges_[k].c1, bridges_[k].c2);
   }
   // Adds an edge to the image graph of what the skeleton holds.
   void Link(const ImagePair& p) {
@@ -390,8 +393,10 @@ class SkeletonBuilder {
   std::vector<char> used_;           // U: community pairs of the skeleton.
   std::vector<char> rejected_seen_;  // Recorded once.
   std::vector<char> in_skeleton_;
-  // Image graph of the communities' top-k edges and the bridges taken.
+  // Image graph of the communities' top-k edges and the bridges taken, and
+  // the communities it joins.
   std::unordered_map<ImageId, std::vector<ImageId>> held_;
+  UnionFind held_communities_;
   // Rotation error of the cycle each bridge closed when admitted (-1: none).
   std::unordered_map<size_t, double> cycle_error_;
 };
@@ -423,7 +428,13 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   cycle_error_[k] = -1.0;
   if (options_.max_cycle_rotation_deg > 0 && scorer_ != nullptr) {
     const ImagePair& p = bridges_[k].pair;
-    const std::vector<ImageId> cycle = HeldPath(p.image_id1, p.image_id2);
+    // Bridges taken so far join communities as the held graph joins
+    // images (each community is connected by its top-k edges): no search
+    // where they are apart.
+    const std::vector<ImageId> cycle =
+        held_communities_.Connected(bridges_[k].c1, bridges_[k].c2)
+            ? HeldPath(p.image_id1, p.image_id2)
+            : std::vector<ImageId>();
     if (!cycle.empty()) {
       // The path a..b closes through the bridge b-a.
       const double error = scorer_->CycleRotationErrorDeg(cycle);
@@ -436,7 +447,7 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   }
   const double score = cache_->Get(k);
   if (score < options_.verify_threshold) {
-    Reject(k, score, role);
+    Reject(k, score, role, cycle_error_[k]);
     return false;
   }
   return true;

@@ -706,9 +706,13 @@ class CycleScorer : public BridgeScorer {
  public:
   std::set<ImagePair> folded;
   std::vector<std::vector<ImageId>> cycles;
+  // Pairs scored 0.1 (below tau); every other pair 0.9.
+  std::set<ImagePair> weak;
   std::string Name() const override { return "cycle"; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
-    return std::vector<double>(pairs.size(), 0.9);
+    std::vector<double> s;
+    for (const ImagePair& p : pairs) s.push_back(weak.count(p) ? 0.1 : 0.9);
+    return s;
   }
   double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
     cycles.push_back(cycle);
@@ -793,6 +797,38 @@ TEST(SkeletonCycles, LaterTreesRejectBridgesThatTurnTheirLoop) {
     num_folded_taken += off.folded.count(b.pair);
   }
   EXPECT_GT(num_folded_taken, 0u);
+}
+
+TEST(SkeletonCycles, ARejectionForTheScoreKeepsTheCycleChecked) {
+  const ViewGraph g = ClusteredGraph(6, 4, 0.5, 3);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options;
+  options.num_trees = 2;
+  options.num_backup_bridges = 0;
+  // Every bridge scores low except those the first tree of an all-passing
+  // build takes: the second tree meets consistent cycles and rejects
+  // bridges for their score only.
+  CycleScorer probe;
+  options.num_trees = 1;
+  const Skeleton first = BuildSkeleton(g, c, &probe, options);
+  CycleScorer scorer;
+  for (const ViewGraphEdge& e : g.Edges()) {
+    if (c.Of(e.pair.image_id1) != c.Of(e.pair.image_id2)) {
+      scorer.weak.insert(e.pair);
+    }
+  }
+  for (const BridgeRecord& b : first.bridges) scorer.weak.erase(b.pair);
+  options.num_trees = 2;
+  const Skeleton built = BuildSkeleton(g, c, &scorer, options);
+  size_t num_checked = 0;
+  for (const BridgeRecord& b : built.rejected) {
+    EXPECT_DOUBLE_EQ(b.score, 0.1);
+    if (b.tree < 0 && b.cycle_error_deg >= 0) {
+      EXPECT_EQ(b.cycle_error_deg, 0.0);
+      ++num_checked;
+    }
+  }
+  EXPECT_GT(num_checked, 0u) << "second-tree rejections carry their cycle";
 }
 
 }  // namespace

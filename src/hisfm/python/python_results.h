@@ -18,8 +18,8 @@ pybind11::object JsonToPython(const nlohmann::json& value);
 /// The view graph of ComputeViewGraphJson: as JSON, but the image records
 /// become columns (`image_ids`, `image_names`, `communities`, `skeletal`) and
 /// every edge list a dict of columns (`pairs` an (E, 2) array of image ids,
-/// `inliers`; for bridges also `communities` (E, 2), `scores`, `roles`,
-/// `trees`).
+/// `inliers`; for bridges also `communities` (E, 2), `scores` (NaN: not
+/// scored), `roles`, `trees`, `cycle_errors_deg` (NaN: no cycle checked)).
 pybind11::dict ViewGraphToPython(const nlohmann::json& view_graph);
 
 /// The summary of RunHierarchicalMapper, each model with its `poses` read

@@ -24,7 +24,8 @@ nlohmann::json BridgeToJson(const BridgeRecord& b) {
   nlohmann::json j = {
       {"image_id1", b.pair.image_id1}, {"image_id2", b.pair.image_id2},
       {"community1", b.community1},   {"community2", b.community2},
-      {"inliers", b.weight},          {"score", b.score},
+      {"inliers", b.weight},
+      {"score", b.score >= 0 ? nlohmann::json(b.score) : nlohmann::json()},
       {"role", RoleName(b.role)},     {"tree", b.tree}};
   if (b.cycle_error_deg >= 0) j["cycle_error_deg"] = b.cycle_error_deg;
   return j;

@@ -13,6 +13,9 @@ namespace hisfm {
 
 /// JSON description: community of each image, skeleton bridges with scores,
 /// intra-community skeleton edges, leaf edges, rejected bridges, components.
+/// A bridge's "score" is null if it was rejected by its cycle before being
+/// scored; "cycle_error_deg" is present where a cycle was checked
+/// (SkeletonOptions::max_cycle_rotation_deg).
 /// `image_names` maps ids to names (may be empty).
 nlohmann::json HierarchyToJson(
     const Hierarchy& hierarchy, const ViewGraph& graph,
