@@ -173,21 +173,29 @@ TEST(HierarchicalMapper, FacadeStreet60IsCorrectWhereColmapFolds) {
   ExpectCorrect("synthetic/facade_street_60", 60, "ground_truth");
 }
 
+// Writes the synthetic scene `scene` (num_images, seed) to tmp/scene; the
+// mapper's paths for it, output to tmp/out.
+MapperPaths SynthScene(const TempDir& tmp, const std::string& scene,
+                       int num_images, uint32_t seed) {
+  SynthOptions synth;
+  synth.scene = scene;
+  synth.num_images = num_images;
+  synth.seed = seed;
+  WriteSyntheticDataset(synth, tmp / "scene");
+  MapperPaths paths;
+  paths.database_path = tmp / "scene/database.db";
+  paths.image_path = tmp / "scene/images";
+  paths.output_path = tmp / "out";
+  return paths;
+}
+
 // The scaffold's bundle adjustment schedule and the global tolerance reach
 // colmap; an explicit --Mapper flag replaces HiSfM's default instead of
 // being repeated; the result stays correct on a synthetic ring.
 TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  SynthOptions synth;
-  synth.scene = "symmetric2";
-  synth.num_images = 24;
-  synth.seed = 1;
-  WriteSyntheticDataset(synth, tmp / "scene");
-  MapperPaths paths;
-  paths.database_path = tmp / "scene/database.db";
-  paths.image_path = tmp / "scene/images";
-  paths.output_path = tmp / "out";
+  const MapperPaths paths = SynthScene(tmp, "symmetric2", 24, 1);
   HierarchicalMapperOptions options;
   options.scaffold_ba_global_ratio = 1.5;
   options.ba_local_max_refinements = 3;
@@ -241,15 +249,7 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
 TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  SynthOptions synth;
-  synth.scene = "object_control";
-  synth.num_images = 16;
-  synth.seed = 3;
-  WriteSyntheticDataset(synth, tmp / "scene");
-  MapperPaths paths;
-  paths.database_path = tmp / "scene/database.db";
-  paths.image_path = tmp / "scene/images";
-  paths.output_path = tmp / "out";
+  const MapperPaths paths = SynthScene(tmp, "object_control", 16, 3);
   HierarchicalMapperOptions options;
   options.global_bundle_adjustment = true;
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
