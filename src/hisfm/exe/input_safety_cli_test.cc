@@ -489,7 +489,8 @@ TEST_F(InputSafetyTest, KilledMapperLeavesNoColmap) {
   // However the test ends, hisfm does not run on.
   const std::unique_ptr<const pid_t, void (*)(const pid_t*)> stop(
       &hisfm, [](const pid_t* pid) { kill(*pid, SIGKILL); });
-  for (int i = 0; i < 1500 && !fs::exists(pids); ++i) {
+  // Up to 2 minutes: under ASan the hierarchy alone takes over 30 s.
+  for (int i = 0; i < 6000 && !fs::exists(pids); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   ASSERT_TRUE(fs::exists(pids)) << ReadTextFile(tmp_ / "mapper.txt");
