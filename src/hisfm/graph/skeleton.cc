@@ -331,6 +331,7 @@ class SkeletonBuilder {
     for (const ViewGraphEdge& e : communities.top_k_edges) Link(e.pair);
     rejected_seen_.assign(bridges_.size(), 0);
     in_skeleton_.assign(bridges_.size(), 0);
+    cycle_error_.assign(bridges_.size(), -1.0);
     cache_ = std::make_unique<ScoreCache>(bridges_, scorer, &skeleton_);
   }
 
@@ -362,10 +363,7 @@ class SkeletonBuilder {
     in_skeleton_[k] = 1;
     skeleton_.bridges.push_back(MakeRecord(bridges_[k], score, true, role,
                                            tree));
-    const auto error = cycle_error_.find(k);
-    if (error != cycle_error_.end()) {
-      skeleton_.bridges.back().cycle_error_deg = error->second;
-    }
+    skeleton_.bridges.back().cycle_error_deg = cycle_error_[k];
     Link(bridges_[k].pair);
     held_communities_.Union(bridges_[k].c1, bridges_[k].c2);
   }
@@ -398,7 +396,7 @@ class SkeletonBuilder {
   std::unordered_map<ImageId, std::vector<ImageId>> held_;
   UnionFind held_communities_;
   // Rotation error of the cycle each bridge closed when admitted (-1: none).
-  std::unordered_map<size_t, double> cycle_error_;
+  std::vector<double> cycle_error_;
 };
 
 std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
@@ -425,7 +423,6 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   // The cycle first: it costs two breadth-first searches' worth of work
   // and the poses of the pairs on it, where a score can cost a network
   // evaluation; a bridge its cycle rejects is never scored.
-  cycle_error_[k] = -1.0;
   if (options_.max_cycle_rotation_deg > 0 && scorer_ != nullptr) {
     const ImagePair& p = bridges_[k].pair;
     // Bridges taken so far join communities as the held graph joins
