@@ -4,15 +4,20 @@
 Input: the TSV files `bench/cue_study --labels L --output F.tsv` writes for the
 instances of the tuning half of the synthetic families (odd seeds), one row per
 verified pair with its label (1 true, 0 false) and the edge test's counts.
-Output: the two tables, P(true) in 20 equal bins of the raw score, for pairs
-the test judged ("speaks") and for silent pairs, by isotonic regression (pool
-adjacent violators). Each instance's true and false pairs are weighted so that
+Output, as the C++ constants of pair_score.cc:
+- for the pairs the test judged ("speaks"): the coefficients of a logistic
+  model of P(true) on the raw score, the join's depth agreement (the smaller
+  of the two models') and the relative burstiness-weighted support, fitted by
+  iteratively reweighted least squares;
+- for silent pairs: P(true) in 20 equal bins of the raw score, by isotonic
+  regression (pool adjacent violators). Each instance's true and false pairs are weighted so that
 true pairs carry the share `--prior` of every instance (the share of true
 pairs among the pairs the hierarchy verified on the tuning half, 0.58), so
-that no family and no instance dominates by its size.
+that no family and no instance dominates by its size. Instances with only one
+class (the control scenes without doppelgangers) are left out.
 
-The raw score and the rule for when the test speaks must match
-PairFeatures::RawScore and PairFeatures::Speaks.
+The raw score, the features and the rule for when the test speaks must match
+PairFeatures (pair_score.h).
 
 Usage: fit_score_calibration.py [--prior 0.58] TSV...
 """
@@ -48,6 +53,67 @@ def read_tsv(path):
                 yield dict(zip(header, values))
 
 
+def judged_features(row):
+    """The logistic model's inputs (PairFeatures::JudgedInputs) of a judged row."""
+    raw, _ = raw_score(row)
+    agreement = min(float(row["agree_i"]), float(row["agree_j"]))
+    return [1.0, raw, agreement, float(row["rel_burst"])]
+
+
+def weighted_rows(paths, prior):
+    """(row, is_true, weight) over the labelled rows of every file, weighted as
+    the module docstring says."""
+    for path in paths:
+        rows = [r for r in read_tsv(path) if r["label"] in ("0", "1")]
+        positives = sum(1 for r in rows if r["label"] == "1")
+        negatives = len(rows) - positives
+        if positives == 0 or negatives == 0:
+            # A control scene without doppelgangers (or without true pairs):
+            # the per-class weighting is undefined for it.
+            continue
+        for r in rows:
+            true = r["label"] == "1"
+            w = prior / max(positives, 1) if true else (1 - prior) / max(negatives, 1)
+            yield r, true, w
+
+
+def solve(a, b):
+    """Solves the small dense system a x = b (Gauss-Jordan, partial pivoting)."""
+    n = len(b)
+    m = [list(a[i]) + [b[i]] for i in range(n)]
+    for c in range(n):
+        p = max(range(c, n), key=lambda r: abs(m[r][c]))
+        m[c], m[p] = m[p], m[c]
+        for r in range(n):
+            if r != c and m[c][c] != 0:
+                f = m[r][c] / m[c][c]
+                m[r] = [x - f * y for x, y in zip(m[r], m[c])]
+    return [m[i][n] / m[i][i] for i in range(n)]
+
+
+def fit_logistic(paths, prior, ridge=1e-3, iterations=50):
+    """Weighted logistic regression of the label on judged_features."""
+    data = [(judged_features(r), t, w) for r, t, w in weighted_rows(paths, prior)
+            if raw_score(r)[1]]
+    n = len(data[0][0])
+    beta = [0.0] * n
+    for _ in range(iterations):
+        hessian = [[ridge * (i == j) for j in range(n)] for i in range(n)]
+        gradient = [-ridge * b for b in beta]
+        for x, t, w in data:
+            z = sum(b * v for b, v in zip(beta, x))
+            p = 1 / (1 + math.exp(-max(-30.0, min(30.0, z))))
+            for i in range(n):
+                gradient[i] += w * (t - p) * x[i]
+                for j in range(n):
+                    hessian[i][j] += w * p * (1 - p) * x[i] * x[j]
+        step = solve(hessian, gradient)
+        beta = [b + s for b, s in zip(beta, step)]
+        if max(abs(s) for s in step) < 1e-9:
+            break
+    return beta
+
+
 def isotonic(values, weights):
     """Non-decreasing least-squares fit (pool adjacent violators)."""
     blocks = []  # [mean, weight, count]
@@ -77,22 +143,18 @@ def interpolate(x, xs, ys):
     return ys[-1]
 
 
-def fit(paths, prior, speaks):
+def fit_table(paths, prior, judged):
+    """The judged or silent pairs' table: isotonic P(true) per bin of the raw
+    score."""
     num = [0.0] * BINS
     den = [0.0] * BINS
-    for path in paths:
-        rows = [r for r in read_tsv(path) if r["label"] in ("0", "1")]
-        positives = sum(1 for r in rows if r["label"] == "1")
-        negatives = len(rows) - positives
-        for r in rows:
-            score, s = raw_score(r)
-            if s != speaks:
-                continue
-            b = min(BINS - 1, int(score * BINS))
-            true = r["label"] == "1"
-            w = prior / max(positives, 1) if true else (1 - prior) / max(negatives, 1)
-            den[b] += w
-            num[b] += w * true
+    for r, true, w in weighted_rows(paths, prior):
+        score, speaks = raw_score(r)
+        if speaks != judged:
+            continue
+        b = min(BINS - 1, int(score * BINS))
+        den[b] += w
+        num[b] += w * true
     filled = [k for k in range(BINS) if den[k] > 0]
     if not filled:
         return [math.nan] * BINS
@@ -105,10 +167,11 @@ def main():
     parser.add_argument("--prior", type=float, default=0.58)
     parser.add_argument("tsv", nargs="+")
     args = parser.parse_args()
-    for speaks, name in ((True, "kJudged"), (False, "kSilent")):
-        table = fit(args.tsv, args.prior, speaks)
-        print("%s = {%s};" % (name, ", ".join("%.3f" % v for v in table)))
-
+    beta = fit_logistic(args.tsv, args.prior)
+    print("kJudgedModel = {%s};  // intercept, raw, agreement, relative burstiness"
+          % ", ".join("%.3f" % b for b in beta))
+    table = fit_table(args.tsv, args.prior, False)
+    print("kSilent = {%s};" % ", ".join("%.3f" % v for v in table))
 
 if __name__ == "__main__":
     main()

@@ -6,14 +6,23 @@
 namespace hisfm {
 namespace {
 
-// P(true | raw score) in 20 bins of width 0.05 (pair_score.h), for pairs
-// the edge test judged and for pairs it could not.
-constexpr std::array<double, kScoreBins> kJudged = {
-    0.193, 0.193, 0.193, 0.193, 0.200, 0.298, 0.355, 0.489, 0.614, 0.624,
-    0.624, 0.638, 0.638, 0.651, 0.652, 0.715, 0.715, 0.715, 0.872, 0.932};
+// The fit of scripts/fit_score_calibration.py on the tuning half
+// (pair_score.h; docs/decisions.md, 2026-12-02).
+constexpr JudgedScoreModel kJudgedModel = {-5.582, 5.334, 1.897, 2.927};
+// P(true | raw score) in 20 bins of width 0.05, for pairs the edge test
+// could not judge.
 constexpr std::array<double, kScoreBins> kSilent = {
-    0.217, 0.514, 0.514, 0.514, 0.732, 0.846, 0.846, 0.846, 0.846, 0.846,
-    0.970, 0.976, 0.983, 0.983, 0.985, 0.999, 0.999, 0.999, 0.999, 0.999};
+    0.300, 0.674, 0.674, 0.674, 0.740, 0.850, 0.850, 0.854, 0.854, 0.854,
+    0.974, 0.989, 0.989, 0.989, 0.991, 0.999, 0.999, 0.999, 0.999, 0.999};
+
+// The table's value at a raw score (linear between bin centres).
+double Interpolate(const std::array<double, kScoreBins>& table, double raw) {
+  const double x = raw * kScoreBins - 0.5;
+  const int lo = std::clamp(static_cast<int>(std::floor(x)), 0, kScoreBins - 1);
+  const int hi = std::min(lo + 1, kScoreBins - 1);
+  const double f = std::clamp(x - lo, 0.0, 1.0);
+  return (1 - f) * table[lo] + f * table[hi];
+}
 
 }  // namespace
 
@@ -26,6 +35,7 @@ PairFeatures PairFeatures::FromEvidence(const EdgeEvidence& evidence) {
   f.num_found_displaced = evidence.num_found_displaced;
   f.models_checked = evidence.models_checked;
   f.models_found = evidence.models_found;
+  f.agreement = std::min(evidence.agreement_i, evidence.agreement_j);
   return f;
 }
 
@@ -39,27 +49,34 @@ bool PairFeatures::Speaks() const {
   return repeatability >= kMinRepeatabilityOverChance * chance;
 }
 
+int PairFeatures::NumMissing() const {
+  return std::max(0, num_visible - num_found);
+}
+
 double PairFeatures::RawScore() const {
   if (Speaks()) {
-    const double missing = std::max(0, num_visible - num_found);
+    const double missing = NumMissing();
     return std::clamp(1.0 - missing / num_unique, 0.0, 1.0);
   }
   return std::clamp(relative_burstiness, 0.0, kMaxSilentRawScore);
 }
 
 double CalibratedPairScore(const PairFeatures& features) {
-  const std::array<double, kScoreBins>& table =
-      features.Speaks() ? kJudged : kSilent;
-  // Linear interpolation between bin centres.
-  const double x = features.RawScore() * kScoreBins - 0.5;
-  const int lo = std::clamp(static_cast<int>(std::floor(x)), 0, kScoreBins - 1);
-  const int hi = std::min(lo + 1, kScoreBins - 1);
-  const double f = std::clamp(x - lo, 0.0, 1.0);
-  return (1 - f) * table[lo] + f * table[hi];
+  if (features.Speaks()) {
+    const JudgedScoreModel& m = kJudgedModel;
+    const double z = m.intercept + m.raw * features.RawScore() +
+                     m.agreement * std::clamp(features.agreement, 0.0, 1.0) +
+                     m.relative_burstiness *
+                         std::clamp(features.relative_burstiness, 0.0, 1.0);
+    return 1.0 / (1.0 + std::exp(-z));
+  }
+  return Interpolate(kSilent, features.RawScore());
 }
 
-const std::array<double, kScoreBins>& CalibrationTable(bool judged) {
-  return judged ? kJudged : kSilent;
+const JudgedScoreModel& JudgedModel() { return kJudgedModel; }
+
+const std::array<double, kScoreBins>& SilentCalibrationTable() {
+  return kSilent;
 }
 
 }  // namespace hisfm

@@ -16,10 +16,19 @@
 //    support of each of its images (match_burstiness.h; the smaller ratio),
 //    capped at kMaxSilentRawScore: without a test, a pair as strong as the
 //    images' best pairs is probably, not certainly, true.
-// It is mapped to a probability by isotonic regression, separately for
-// judged and silent pairs, on the tuning half of the synthetic scene
-// families (odd seeds; each instance and each class weighted with the
-// share of true pairs among the pairs the hierarchy verified there, 0.58):
+// Where the test speaks, the probability combines the raw score with two
+// more measurements of the pair in a logistic model: how well the pair
+// joins the two models (the smaller share of its inliers that are model
+// points and agree with the joining depth; a doppelganger of a symmetric
+// object joins them with a pose far off, so few agree) and the relative
+// burstiness-weighted support (the matches of repeated structure are
+// bursty, so a doppelganger is weaker, once burstiness is discounted, than
+// each image's strongest pair; Jegou, Douze, Schmid, CVPR 2009). Silent
+// pairs are mapped by isotonic regression of the raw score. Both are fitted
+// on the tuning half of the synthetic scenes (odd seeds, 40 images, the
+// families and the fixed scenes that hold doppelgangers; each instance and
+// each class weighted with the share of true pairs among the pairs the
+// hierarchy verified there, 0.58):
 // `scripts/fit_score_calibration.py` reproduces the tables from the
 // TSV files of `bench/cue_study`, and docs/decisions.md records the fit and
 // the held-out results. The score
@@ -44,7 +53,7 @@ constexpr int kMinUniquePoints = 5;
 constexpr double kMinRepeatabilityOverChance = 2.0;
 /// Largest raw score of a pair the test could not judge.
 constexpr double kMaxSilentRawScore = 0.75;
-/// Bins of the calibration tables.
+/// Bins of the silent pairs' calibration table.
 constexpr int kScoreBins = 20;
 
 /// What the score is computed from.
@@ -59,23 +68,44 @@ struct PairFeatures {
   int num_found_displaced = 0;
   int models_checked = 0;
   int models_found = 0;
+  /// How well the pair joins the two models: the smaller of the shares of
+  /// its inliers that are model points and agree with the joining depth
+  /// (EdgeEvidence::agreement_i, agreement_j), in [0, 1].
+  double agreement = 1;
   /// Burstiness-weighted support of the pair relative to the strongest of
   /// each of its images (the smaller ratio, in (0, 1]).
   double relative_burstiness = 1;
 
   /// The edge test's part from its evidence.
   static PairFeatures FromEvidence(const EdgeEvidence& evidence);
+  /// Unique points predicted visible and not found (0 if the counts say
+  /// otherwise).
+  int NumMissing() const;
   /// True if the test judged enough unique points where detection repeats.
   bool Speaks() const;
   /// The raw evidence in [0, 1] (see the file comment).
   double RawScore() const;
 };
 
-/// The calibrated score in [0, 1].
+/// Coefficients of the judged pairs' logistic model:
+/// P(true) = 1 / (1 + exp(-z)) with z = intercept + raw * RawScore() +
+/// agreement * agreement + relative_burstiness * relative_burstiness.
+struct JudgedScoreModel {
+  double intercept = 0;
+  double raw = 0;
+  double agreement = 0;
+  double relative_burstiness = 0;
+};
+
+/// The calibrated score in [0, 1]: for judged pairs the logistic model, for
+/// silent pairs the silent table.
 double CalibratedPairScore(const PairFeatures& features);
 
-/// The calibration table for judged (true) or silent pairs: P(true) at the
-/// centres of kScoreBins equal bins of the raw score.
-const std::array<double, kScoreBins>& CalibrationTable(bool judged);
+/// The logistic model of the pairs the test judged.
+const JudgedScoreModel& JudgedModel();
+
+/// The calibration table of silent pairs: P(true) at the centres of
+/// kScoreBins equal bins of the raw score.
+const std::array<double, kScoreBins>& SilentCalibrationTable();
 
 }  // namespace hisfm

@@ -27,21 +27,67 @@ PairFeatures Silent(double relative_burstiness) {
   return f;
 }
 
-TEST(PairScore, CalibrationTablesAreMonotoneProbabilities) {
-  for (const bool judged : {true, false}) {
-    const auto& table = CalibrationTable(judged);
-    for (int k = 0; k < kScoreBins; ++k) {
-      EXPECT_GE(table[k], 0.0);
-      EXPECT_LE(table[k], 1.0);
-      if (k > 0) {
-        EXPECT_GE(table[k], table[k - 1]) << "bin " << k;
-      }
+TEST(PairScore, SilentTableIsAMonotoneProbability) {
+  const auto& table = SilentCalibrationTable();
+  for (int k = 0; k < kScoreBins; ++k) {
+    EXPECT_GE(table[k], 0.0);
+    EXPECT_LE(table[k], 1.0);
+    if (k > 0) {
+      EXPECT_GE(table[k], table[k - 1]) << "bin " << k;
     }
-    // The tables say something: the best bin is more likely true than the
-    // worst.
-    EXPECT_GT(table[kScoreBins - 1], table[0]);
   }
-  EXPECT_NE(&CalibrationTable(true), &CalibrationTable(false));
+  // The table says something: the best bin is more likely true than the
+  // worst.
+  EXPECT_GT(table[kScoreBins - 1], table[0]);
+}
+
+TEST(PairScore, JudgedModelRewardsEveryMeasurement) {
+  // Each measurement is evidence for a true pair: none of the fitted
+  // coefficients may be negative, and the raw score must matter.
+  const JudgedScoreModel& m = JudgedModel();
+  EXPECT_GT(m.raw, 0.0);
+  EXPECT_GE(m.agreement, 0.0);
+  EXPECT_GE(m.relative_burstiness, 0.0);
+}
+
+// A judged pair with raw score 0.6 (16 of 40 unique points missing).
+PairFeatures Raw06(double agreement, double relative_burstiness) {
+  PairFeatures f = Judged(40, 16, 0);
+  f.agreement = agreement;
+  f.relative_burstiness = relative_burstiness;
+  return f;
+}
+
+TEST(PairScore, JudgedScoreIsTheLogisticModel) {
+  const JudgedScoreModel& m = JudgedModel();
+  for (const double agreement : {0.0, 0.3, 1.0}) {
+    for (const double burstiness : {0.05, 0.5, 1.0}) {
+      const double z = m.intercept + m.raw * 0.6 + m.agreement * agreement +
+                       m.relative_burstiness * burstiness;
+      EXPECT_NEAR(CalibratedPairScore(Raw06(agreement, burstiness)),
+                  1 / (1 + std::exp(-z)), 1e-12)
+          << agreement << " " << burstiness;
+    }
+  }
+  // Out-of-range measurements are clamped to [0, 1].
+  EXPECT_DOUBLE_EQ(CalibratedPairScore(Raw06(1.7, -0.2)),
+                   CalibratedPairScore(Raw06(1.0, 0.0)));
+}
+
+TEST(PairScore, PoorJoinOrBurstySupportLowersTheScore) {
+  // The same missing correspondences: a pair that joins its models badly
+  // (few inliers at the models' depth) or whose support is bursty (weak
+  // once repeated matches are discounted) is less likely true.
+  EXPECT_GT(CalibratedPairScore(Raw06(1.0, 1.0)),
+            CalibratedPairScore(Raw06(0.3, 1.0)));
+  EXPECT_GT(CalibratedPairScore(Raw06(1.0, 1.0)),
+            CalibratedPairScore(Raw06(1.0, 0.3)));
+  // The silent score ignores the join (there is none to measure).
+  PairFeatures silent = Silent(0.5);
+  PairFeatures silent_poor = silent;
+  silent_poor.agreement = 0.0;
+  EXPECT_DOUBLE_EQ(CalibratedPairScore(silent),
+                   CalibratedPairScore(silent_poor));
 }
 
 TEST(PairScore, SpeaksNeedsJudgementAndEnoughUniquePoints) {
@@ -92,6 +138,8 @@ TEST(PairScore, FromEvidenceCopiesTheCounts) {
   e.num_found_displaced = 3;
   e.models_checked = 50;
   e.models_found = 20;
+  e.agreement_i = 0.9;
+  e.agreement_j = 0.6;
   const PairFeatures f = PairFeatures::FromEvidence(e);
   EXPECT_TRUE(f.judged);
   EXPECT_EQ(f.num_unique, 12);
@@ -100,6 +148,7 @@ TEST(PairScore, FromEvidenceCopiesTheCounts) {
   EXPECT_EQ(f.num_found_displaced, 3);
   EXPECT_EQ(f.models_checked, 50);
   EXPECT_EQ(f.models_found, 20);
+  EXPECT_DOUBLE_EQ(f.agreement, 0.6);
   EXPECT_TRUE(f.Speaks());
   EXPECT_DOUBLE_EQ(f.RawScore(), 1.0 - 5.0 / 12.0);
 }
@@ -134,39 +183,27 @@ TEST(PairScore, RawScoreFormula) {
   }
 }
 
-TEST(PairScore, CalibratedScoreInterpolatesBetweenBinCentres) {
-  for (const bool judged : {true, false}) {
-    const auto& table = CalibrationTable(judged);
-    auto score_at = [&](double raw) {
-      if (judged) {
-        // raw = 1 - missing / 1000 with 1000 unique points.
-        const int missing = static_cast<int>(std::lround((1 - raw) * 1000));
-        return CalibratedPairScore(Judged(1000, missing, 0));
-      }
-      return CalibratedPairScore(Silent(raw));
-    };
-    const int max_bin = judged ? kScoreBins : 15;  // silent raw <= 0.75
-    for (int k = 0; k < max_bin; ++k) {
-      // At a bin centre: the table's value.
-      EXPECT_NEAR(score_at((k + 0.5) / kScoreBins), table[k], 1e-9)
-          << "bin " << k << " judged " << judged;
-      // Half-way between two centres: the mean.
-      if (k + 1 < max_bin) {
-        EXPECT_NEAR(score_at((k + 1.0) / kScoreBins),
-                    0.5 * (table[k] + table[k + 1]), 1e-9)
-            << "bin " << k << " judged " << judged;
-      }
+TEST(PairScore, SilentScoreInterpolatesBetweenBinCentres) {
+  const auto& table = SilentCalibrationTable();
+  auto score_at = [](double raw) { return CalibratedPairScore(Silent(raw)); };
+  const int max_bin = 15;  // silent raw <= 0.75
+  for (int k = 0; k < max_bin; ++k) {
+    // At a bin centre: the table's value.
+    EXPECT_NEAR(score_at((k + 0.5) / kScoreBins), table[k], 1e-9)
+        << "bin " << k;
+    // Half-way between two centres: the mean.
+    if (k + 1 < max_bin) {
+      EXPECT_NEAR(score_at((k + 1.0) / kScoreBins),
+                  0.5 * (table[k] + table[k + 1]), 1e-9)
+          << "bin " << k;
     }
-    // Below the first centre and above the last: the end values.
-    EXPECT_NEAR(score_at(0.0), table[0], 1e-12);
   }
-  EXPECT_NEAR(CalibratedPairScore(Judged(10, 0, 0)),
-              CalibrationTable(true)[kScoreBins - 1], 1e-12);
+  // Below the first centre: the end value.
+  EXPECT_NEAR(score_at(0.0), table[0], 1e-12);
   // A silent pair never scores above the table at the cap.
-  const auto& silent = CalibrationTable(false);
   const double at_cap = CalibratedPairScore(Silent(kMaxSilentRawScore));
   EXPECT_NEAR(CalibratedPairScore(Silent(1.0)), at_cap, 1e-12);
-  EXPECT_LE(at_cap, silent[kScoreBins - 1]);
+  EXPECT_LE(at_cap, table[kScoreBins - 1]);
 }
 
 TEST(PairScore, ScoresAreProbabilitiesMonotoneInTheRawScore) {
