@@ -239,7 +239,7 @@ int main(int argc, char** argv) {
           << ev.MissingFraction() << '\t' << ev.num_consistent << '\t'
           << score << '\t' << ev.num_found_displaced << '\t'
           << ev.models_checked << '\t' << ev.models_found << '\t'
-          << relative(verifier.RankingGraph(), e.pair) << '\t'
+          << verifier.Features(e.pair).relative_burstiness << '\t'
           << relative(graph, e.pair) << '\n';
     }
   }

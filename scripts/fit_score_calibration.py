@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
-"""Fits the builtin verifier's calibration tables (src/hisfm/verify/pair_score.cc).
+"""Fits the builtin verifier's score (src/hisfm/verify/pair_score.cc).
 
 Input: the TSV files `bench/cue_study --labels L --output F.tsv` writes for the
-instances of the tuning half of the synthetic families (odd seeds), one row per
+instances of the tuning half of the synthetic scenes (odd seeds), one row per
 verified pair with its label (1 true, 0 false) and the edge test's counts.
 Output, as the C++ constants of pair_score.cc:
 - for the pairs the test judged ("speaks"): the coefficients of a logistic
@@ -10,14 +10,15 @@ Output, as the C++ constants of pair_score.cc:
   of the two models') and the relative burstiness-weighted support, fitted by
   iteratively reweighted least squares;
 - for silent pairs: P(true) in 20 equal bins of the raw score, by isotonic
-  regression (pool adjacent violators). Each instance's true and false pairs are weighted so that
-true pairs carry the share `--prior` of every instance (the share of true
-pairs among the pairs the hierarchy verified on the tuning half, 0.58), so
-that no family and no instance dominates by its size. Instances with only one
-class (the control scenes without doppelgangers) are left out.
+  regression (pool adjacent violators).
+Both fits weight each instance's true and false pairs so that true pairs
+carry the share `--prior` of every instance (the share of true pairs among
+the pairs the hierarchy verified on the tuning half, 0.58), so that no family
+and no instance dominates by its size. Instances with only one class (the
+control scenes without doppelgangers) are left out.
 
 The raw score, the features and the rule for when the test speaks must match
-PairFeatures (pair_score.h).
+PairFeatures and CalibratedPairScore (pair_score.h).
 
 Usage: fit_score_calibration.py [--prior 0.58] TSV...
 """
@@ -53,11 +54,16 @@ def read_tsv(path):
                 yield dict(zip(header, values))
 
 
+def clamp01(x):
+    return min(1.0, max(0.0, x))
+
+
 def judged_features(row):
-    """The logistic model's inputs (PairFeatures::JudgedInputs) of a judged row."""
+    """The logistic model's inputs of a judged row (1 for the intercept, then
+    as CalibratedPairScore uses them)."""
     raw, _ = raw_score(row)
     agreement = min(float(row["agree_i"]), float(row["agree_j"]))
-    return [1.0, raw, agreement, float(row["rel_burst"])]
+    return [1.0, raw, clamp01(agreement), clamp01(float(row["rel_burst"]))]
 
 
 def weighted_rows(paths, prior):
@@ -73,12 +79,12 @@ def weighted_rows(paths, prior):
             continue
         for r in rows:
             true = r["label"] == "1"
-            w = prior / max(positives, 1) if true else (1 - prior) / max(negatives, 1)
+            w = prior / positives if true else (1 - prior) / negatives
             yield r, true, w
 
 
 def solve(a, b):
-    """Solves the small dense system a x = b (Gauss-Jordan, partial pivoting)."""
+    """Solves the small dense system a x = b (Gauss-Jordan, pivoting)."""
     n = len(b)
     m = [list(a[i]) + [b[i]] for i in range(n)]
     for c in range(n):
@@ -93,8 +99,10 @@ def solve(a, b):
 
 def fit_logistic(paths, prior, ridge=1e-3, iterations=50):
     """Weighted logistic regression of the label on judged_features."""
-    data = [(judged_features(r), t, w) for r, t, w in weighted_rows(paths, prior)
-            if raw_score(r)[1]]
+    data = [(judged_features(r), t, w)
+            for r, t, w in weighted_rows(paths, prior) if raw_score(r)[1]]
+    if not data:
+        raise ValueError("no judged pair in an instance with both classes")
     n = len(data[0][0])
     beta = [0.0] * n
     for _ in range(iterations):
@@ -168,10 +176,11 @@ def main():
     parser.add_argument("tsv", nargs="+")
     args = parser.parse_args()
     beta = fit_logistic(args.tsv, args.prior)
-    print("kJudgedModel = {%s};  // intercept, raw, agreement, relative burstiness"
+    print("kJudgedModel = {%s};  // intercept, raw, agreement, burstiness"
           % ", ".join("%.3f" % b for b in beta))
     table = fit_table(args.tsv, args.prior, False)
     print("kSilent = {%s};" % ", ".join("%.3f" % v for v in table))
+
 
 if __name__ == "__main__":
     main()

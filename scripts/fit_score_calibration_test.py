@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Tests of scripts/fit_score_calibration.py on generated TSV rows (run by ctest)."""
+"""Tests of scripts/fit_score_calibration.py on generated rows (ctest)."""
 import math
 import os
 import random
@@ -15,13 +15,17 @@ HEADER = ["id1", "id2", "label", "judged", "agree_i", "agree_j", "unique",
           "rel_burst"]
 
 
-def row(label, raw, agreement, burstiness, judged=True):
-    """A cue_study row whose test speaks (or not) with the given raw score."""
+def row(label, raw, agreement, burstiness, judged=True, other=1.0):
+    """A cue_study row whose test speaks (or not) with the given raw score;
+    `agreement` is the smaller of the two sides' agreements, `other` the
+    larger (on side i or j at random)."""
     unique = 100
     missing = round((1 - raw) * unique)
+    sides = ["%.4f" % agreement, "%.4f" % max(agreement, other)]
+    random.Random(missing + 1000 * int(agreement * 100)).shuffle(sides)
     return {"id1": "1", "id2": "2", "label": str(label),
             "judged": "1" if judged else "0",
-            "agree_i": "%.4f" % agreement, "agree_j": "1",
+            "agree_i": sides[0], "agree_j": sides[1],
             "unique": str(unique), "visible": str(missing), "found": "0",
             "displaced": "0", "models_checked": "100", "models_found": "50",
             "rel_burst": "%.4f" % burstiness}
@@ -55,10 +59,10 @@ class FitScoreCalibrationTest(unittest.TestCase):
         rng = random.Random(7)
         rows = []
         for _ in range(6000):
-            raw, agreement, burstiness = rng.random(), rng.random(), rng.random()
-            z = truth[0] + truth[1] * raw + truth[2] * agreement + truth[3] * burstiness
+            x = [rng.random() for _ in range(3)]
+            z = truth[0] + sum(t * v for t, v in zip(truth[1:], x))
             label = 1 if rng.random() < 1 / (1 + math.exp(-z)) else 0
-            rows.append(row(label, raw, agreement, burstiness))
+            rows.append(row(label, *x))
         path = os.path.join(self.dir.name, "a.tsv")
         write_tsv(path, rows)
         # With the prior equal to the sample's share of true rows the
@@ -68,23 +72,50 @@ class FitScoreCalibrationTest(unittest.TestCase):
         for b, t in zip(beta, truth):
             self.assertAlmostEqual(b, t, delta=0.5)
 
-    def test_tables_are_monotone_and_separate_the_classes(self):
+    def test_judged_features_take_the_smaller_agreement(self):
+        r = row(1, 0.5, 0.3, 0.8)
+        for i, j in (("0.3", "0.9"), ("0.9", "0.3")):
+            r["agree_i"], r["agree_j"] = i, j
+            x = fit.judged_features(r)
+            self.assertEqual(x[0], 1.0)
+            self.assertAlmostEqual(x[1], 0.5)
+            self.assertAlmostEqual(x[2], 0.3)
+            self.assertAlmostEqual(x[3], 0.8)
+        # Out-of-range inputs are clamped as in CalibratedPairScore.
+        self.assertAlmostEqual(fit.judged_features(row(1, 0.5, 1, 1.6))[3],
+                               1.0)
+
+    def test_one_class_instances_are_left_out(self):
+        rng = random.Random(5)
+        rows = []
+        for _ in range(1000):
+            x = [rng.random() for _ in range(3)]
+            rows.append(row(1 if rng.random() < x[0] else 0, *x))
+        mixed = os.path.join(self.dir.name, "mixed.tsv")
+        control = os.path.join(self.dir.name, "control.tsv")
+        write_tsv(mixed, rows)
+        write_tsv(control, [row(1, 0.1, 0.1, 0.1) for _ in range(500)])
+        self.assertEqual(fit.fit_logistic([mixed], 0.58),
+                         fit.fit_logistic([mixed, control], 0.58))
+        with self.assertRaises(ValueError):
+            fit.fit_logistic([control], 0.58)
+
+    def test_silent_table_is_monotone_and_separates_the_classes(self):
+        # Silent rows: the raw score is the (capped) relative burstiness.
         rng = random.Random(3)
         rows = []
         for _ in range(2000):
-            raw = rng.random()
-            rows.append(row(1 if rng.random() < raw else 0, raw, 1, 1))
-            rows.append(row(1 if rng.random() < raw else 0, raw * 0.75, 1, raw,
-                            judged=False))
+            burstiness = rng.random()
+            label = 1 if rng.random() < burstiness else 0
+            rows.append(row(label, 0.5, 1, burstiness, judged=False))
         path = os.path.join(self.dir.name, "b.tsv")
         write_tsv(path, rows)
-        for judged in (True, False):
-            table = fit.fit_table([path], 0.5, judged)
-            self.assertEqual(len(table), fit.BINS)
-            for a, b in zip(table, table[1:]):
-                self.assertLessEqual(a, b + 1e-12)
-            self.assertLess(table[0], 0.3)
-            self.assertGreater(max(table), 0.7)
+        table = fit.fit_table([path], 0.5, False)
+        self.assertEqual(len(table), fit.BINS)
+        for a, b in zip(table, table[1:]):
+            self.assertLessEqual(a, b + 1e-12)
+        self.assertLess(table[0], 0.3)
+        self.assertGreater(max(table), 0.7)
 
     def test_isotonic_pools_violators(self):
         self.assertEqual(fit.isotonic([0.2, 0.6, 0.4, 0.9], [1, 1, 1, 1]),

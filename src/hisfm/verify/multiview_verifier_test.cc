@@ -62,6 +62,7 @@ TEST_F(MultiViewVerifierTest, TruePairsScoreAboveDoppelgangers) {
     EXPECT_EQ(f.num_unique, ev.num_unique);
     EXPECT_EQ(f.num_visible, ev.num_visible);
     EXPECT_EQ(f.num_found, ev.num_found);
+    EXPECT_DOUBLE_EQ(f.agreement, std::min(ev.agreement_i, ev.agreement_j));
     EXPECT_GT(f.relative_burstiness, 0.0);
     EXPECT_LE(f.relative_burstiness, 1.0);
     if (IsTrue(e.pair)) {

@@ -29,11 +29,11 @@
 // families and the fixed scenes that hold doppelgangers; each instance and
 // each class weighted with the share of true pairs among the pairs the
 // hierarchy verified there, 0.58):
-// `scripts/fit_score_calibration.py` reproduces the tables from the
-// TSV files of `bench/cue_study`, and docs/decisions.md records the fit and
-// the held-out results. The score
-// therefore means the same as a learned plug-in's probability, and one
-// threshold (--HiSfM.verify_threshold) applies to every verifier.
+// `scripts/fit_score_calibration.py` reproduces the model and the table
+// from the TSV files of `bench/cue_study`, and docs/decisions.md records
+// the fit and the held-out results. The score therefore means the same as
+// a learned plug-in's probability, and one threshold
+// (--HiSfM.verify_threshold) applies to every verifier.
 #pragma once
 
 #include <array>
@@ -91,9 +91,13 @@ struct PairFeatures {
 /// P(true) = 1 / (1 + exp(-z)) with z = intercept + raw * RawScore() +
 /// agreement * agreement + relative_burstiness * relative_burstiness.
 struct JudgedScoreModel {
+  /// Log-odds of a pair with all three measurements at 0.
   double intercept = 0;
+  /// Weight of PairFeatures::RawScore().
   double raw = 0;
+  /// Weight of PairFeatures::agreement (clamped to [0, 1]).
   double agreement = 0;
+  /// Weight of PairFeatures::relative_burstiness (clamped to [0, 1]).
   double relative_burstiness = 0;
 };
 
