@@ -213,6 +213,7 @@ int RunDemoCommand(int argc, char** argv) {
   std::printf("\nmodels: %s/0 (COLMAP), %s/0 (HiSfM)\nreport: %s\n",
               colmap_out.c_str(), paths.output_path.c_str(),
               report_path.c_str());
+  ThrowIfInterrupted();
   return 0;
 }
 

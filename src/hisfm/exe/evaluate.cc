@@ -94,6 +94,7 @@ int RunEvaluate(int argc, char** argv) {
                         stats.mean_reprojection_error,
                         " px, mean track length ", stats.mean_track_length,
                         "\n");
+    ThrowIfInterrupted();
   }
   j["reference_path"] = reference_path;
   j["model_paths"] = model_paths;

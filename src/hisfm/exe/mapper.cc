@@ -39,6 +39,7 @@ int RunMapperCommand(int argc, char** argv) {
   const std::string report_path = paths.output_path + "/report.html";
   WriteReport(ReadMapperReportInput(paths.output_path), report_path);
   HISFM_LOG_INFO("report: {}", report_path);
+  ThrowIfInterrupted();
   return 0;
 }
 

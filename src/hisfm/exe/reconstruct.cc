@@ -358,6 +358,7 @@ int RunReconstructCommand(int argc, char** argv) {
   PrintRunSummary(pipeline, features, recorded_mapper, mapper.skipped,
                   report_timer.ElapsedSeconds(), total.ElapsedSeconds(), input,
                   sparse, report_path);
+  ThrowIfInterrupted();
   return 0;
 }
 

@@ -95,6 +95,7 @@ py::dict ViewGraphFunction(const py::object& database_path, const py::kwargs& kw
     py::gil_scoped_release release;
     InterruptScope interrupt_scope;
     view_graph = ComputeViewGraphJson(database, image_path, options);
+    ThrowIfInterrupted();
   }
   return ViewGraphToPython(view_graph);
 }
@@ -141,6 +142,7 @@ py::dict MapperFunction(const py::object& database_path, const py::object& image
     const std::string report_path = paths.output_path + "/report.html";
     WriteReport(ReadMapperReportInput(paths.output_path), report_path);
     HISFM_LOG_INFO("report: {}", report_path);
+    ThrowIfInterrupted();
   }
   return MapperSummaryToPython(summary, paths.output_path);
 }

@@ -39,6 +39,10 @@ Interrupted::Interrupted(int signal)
       signal_(signal) {}
 
 InterruptScope::InterruptScope() {
+  // A new scope starts clean: a signal of an earlier scope (a handled
+  // KeyboardInterrupt in a Python session) does not stop this one.
+  g_signal.store(0);
+  g_child.store(0);
   struct sigaction action = {};
   action.sa_handler = OnInterrupt;
   action.sa_flags = SA_RESTART;

@@ -26,9 +26,11 @@ class Interrupted : public Error {
 /// While one lives, SIGINT, SIGTERM and SIGHUP are caught (unless they were
 /// ignored, as under nohup): a first signal is recorded and forwarded to the
 /// child registered with SetInterruptibleChild; a second one ends the
-/// process at once. The previous handlers come back on destruction. For
-/// commands that check (ThrowIfInterrupted) between their stages; one per
-/// process.
+/// process at once. The previous handlers come back on destruction, and a
+/// signal recorded but not thrown is forgotten then: a command calls
+/// ThrowIfInterrupted between its stages and once more at the end of the
+/// scope, so that a Ctrl-C during its last step still stops it. A new scope
+/// starts with no signal recorded. One at a time per process.
 class InterruptScope {
  public:
   InterruptScope();
