@@ -230,8 +230,16 @@ def test_ctrl_c_stops_the_mapper_and_colmap(scene, tmp_path):
         "except KeyboardInterrupt:\n"
         "    print('KeyboardInterrupt')\n")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+
+    def default_sigint():
+        # A test run started in the background (`cmd &` in a script) ignores
+        # SIGINT, and an ignored signal stays ignored in the child, by design
+        # (util/interrupt.h); a user's Ctrl-C reaches a foreground process.
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+
     process = subprocess.Popen([sys.executable, "-c", script], env=env,
-                               stdout=subprocess.PIPE, text=True)
+                               stdout=subprocess.PIPE, text=True,
+                               preexec_fn=default_sigint)
     # Interrupt while colmap runs (the scaffold's mapper).
     children = []
     deadline = time.monotonic() + 120
