@@ -151,14 +151,13 @@ def interpolate(x, xs, ys):
     return ys[-1]
 
 
-def fit_table(paths, prior, judged):
-    """The judged or silent pairs' table: isotonic P(true) per bin of the raw
-    score."""
+def fit_silent(paths, prior):
+    """The silent pairs' table: isotonic P(true) per bin of the raw score."""
     num = [0.0] * BINS
     den = [0.0] * BINS
     for r, true, w in weighted_rows(paths, prior):
         score, speaks = raw_score(r)
-        if speaks != judged:
+        if speaks:
             continue
         b = min(BINS - 1, int(score * BINS))
         den[b] += w
@@ -178,7 +177,7 @@ def main():
     beta = fit_logistic(args.tsv, args.prior)
     print("kJudgedModel = {%s};  // intercept, raw, agreement, burstiness"
           % ", ".join("%.3f" % b for b in beta))
-    table = fit_table(args.tsv, args.prior, False)
+    table = fit_silent(args.tsv, args.prior)
     print("kSilent = {%s};" % ", ".join("%.3f" % v for v in table))
 
 

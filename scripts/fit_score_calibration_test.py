@@ -110,7 +110,7 @@ class FitScoreCalibrationTest(unittest.TestCase):
             rows.append(row(label, 0.5, 1, burstiness, judged=False))
         path = os.path.join(self.dir.name, "b.tsv")
         write_tsv(path, rows)
-        table = fit.fit_table([path], 0.5, False)
+        table = fit.fit_silent([path], 0.5)
         self.assertEqual(len(table), fit.BINS)
         for a, b in zip(table, table[1:]):
             self.assertLessEqual(a, b + 1e-12)

@@ -49,13 +49,9 @@ bool PairFeatures::Speaks() const {
   return repeatability >= kMinRepeatabilityOverChance * chance;
 }
 
-int PairFeatures::NumMissing() const {
-  return std::max(0, num_visible - num_found);
-}
-
 double PairFeatures::RawScore() const {
   if (Speaks()) {
-    const double missing = NumMissing();
+    const double missing = std::max(0, num_visible - num_found);
     return std::clamp(1.0 - missing / num_unique, 0.0, 1.0);
   }
   return std::clamp(relative_burstiness, 0.0, kMaxSilentRawScore);

@@ -78,9 +78,6 @@ struct PairFeatures {
 
   /// The edge test's part from its evidence.
   static PairFeatures FromEvidence(const EdgeEvidence& evidence);
-  /// Unique points predicted visible and not found (0 if the counts say
-  /// otherwise).
-  int NumMissing() const;
   /// True if the test judged enough unique points where detection repeats.
   bool Speaks() const;
   /// The raw evidence in [0, 1] (see the file comment).
