@@ -127,12 +127,15 @@ int main(int argc, char** argv) {
     std::cout << "; points " << m.points.size() << " checked " << m.num_checked
               << " found " << m.num_found << "\n";
   };
-  std::vector<ImageId> debug_egos;
-  for (size_t k = 0; k < debug_pairs.size(); ++k) {
-    if (k % 2 == 0) debug_egos.push_back(debug_pairs[k]);
+  // The triplets each image of a debugged pair tries on its side.
+  std::vector<std::pair<ImageId, ImageId>> debug_egos;
+  for (size_t k = 0; k + 1 < debug_pairs.size(); k += 2) {
+    debug_egos.emplace_back(debug_pairs[k], debug_pairs[k + 1]);
+    debug_egos.emplace_back(debug_pairs[k + 1], debug_pairs[k]);
   }
-  for (const ImageId ego : debug_egos) {
-    const auto cands = StrongestNeighbours(verifier.RankingGraph(), ego, 4);
+  for (const auto& [ego, other] : debug_egos) {
+    const auto cands = SideNeighbours(verifier.RankingGraph(), ego, other, 4,
+                                      MultiViewVerifierOptions().other_side_ratio);
     for (size_t x = 0; x < cands.size(); ++x) {
       for (size_t y = x + 1; y < cands.size(); ++y) {
         for (int ha = 0; ha < 2; ++ha) {
@@ -199,6 +202,20 @@ int main(int argc, char** argv) {
       }
       std::cout << "  truth: support " << support << " epipolar " << epipolar << " of " << geometry->matches.size() << "\n";
     }
+    // Each image's strongest neighbours by the ranking weight, with their
+    // weight to the pair's other image (the side split, local_model.h).
+    const ViewGraph& ranking = verifier.RankingGraph();
+    for (const auto& [ego, other] :
+         {std::make_pair(p.image_id1, p.image_id2),
+          std::make_pair(p.image_id2, p.image_id1)}) {
+      std::cout << "  neighbours of " << ego << " (weight, to " << other
+                << "):";
+      for (const ImageId x : StrongestNeighbours(ranking, ego, 8, other)) {
+        std::cout << " " << x << " (" << ranking.Weight(ego, x) << ", "
+                  << ranking.Weight(other, x) << ")";
+      }
+      std::cout << "\n";
+    }
     print_model(verifier.EgoModel(p.image_id1, p.image_id2));
     print_model(verifier.EgoModel(p.image_id2, p.image_id1));
   }
@@ -208,8 +225,36 @@ int main(int argc, char** argv) {
     out << "id1\tid2\tlabel\tinliers\tjudged\tjoin_i\tjoin_j\tagree_i\t"
            "agree_j\tunique\tvisible\tfound\tmissing_fraction\tconsistent\t"
            "score\tdisplaced\tmodels_checked\tmodels_found\trel_burst\t"
-           "rel_inliers\n";
+           "rel_inliers\tview_angle\tbest_rot_err\n";
   }
+  // Median angle (degrees) at which the pair's inliers are seen from its two
+  // cameras under the hypothesis its test accepted (else the best one); -1
+  // without a pose.
+  const auto median_view_angle = [&](const ImagePair& p, int h) {
+    const auto g = verifier.cache().Pair(p.image_id1, p.image_id2);
+    if (g->hypotheses.empty()) return -1.0;
+    const Rigid3d& pose = g->hypotheses[std::max(h, 0)].cam2_from_cam1;
+    const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
+    const Eigen::Vector3d c2 = -(R.transpose() * pose.translation);
+    const auto& i1 = verifier.cache().Image(p.image_id1);
+    const auto& i2 = verifier.cache().Image(p.image_id2);
+    std::vector<double> angles;
+    for (const FeatureMatch& m : g->matches) {
+      double d1 = 0, d2 = 0;
+      if (!RayDepths(R, pose.translation, i1.normalized[m.idx1],
+                     i2.normalized[m.idx2], &d1, &d2) ||
+          d1 <= 0 || d2 <= 0) {
+        continue;
+      }
+      const Eigen::Vector3d X = d1 * i1.normalized[m.idx1].homogeneous();
+      angles.push_back(TriangulationAngle(Eigen::Vector3d::Zero(), c2, X) *
+                       180.0 / M_PI);
+    }
+    if (angles.empty()) return -1.0;
+    std::nth_element(angles.begin(), angles.begin() + angles.size() / 2,
+                     angles.end());
+    return angles[angles.size() / 2];
+  };
   // An edge's weight relative to the strongest edge of each of its images
   // (the smaller ratio).
   const auto relative = [](const ViewGraph& g, const ImagePair& p) {
@@ -219,6 +264,21 @@ int main(int argc, char** argv) {
     };
     const double w = g.Weight(p.image_id1, p.image_id2);
     return std::min(w / best(p.image_id1), w / best(p.image_id2));
+  };
+  // Rotation error (degrees) of the pair's best-supported pose hypothesis
+  // against the reference (what a reconstruction would use); -1 without a
+  // reference or a pose.
+  const auto best_rotation_error = [&](const ImagePair& p) {
+    const auto g = verifier.cache().Pair(p.image_id1, p.image_id2);
+    if (reference.images.empty() || g->hypotheses.empty() ||
+        !reference.images.count(p.image_id1) ||
+        !reference.images.count(p.image_id2)) {
+      return -1.0;
+    }
+    double rot = 0, dir = 0;
+    pose_error(p.image_id1, p.image_id2, g->hypotheses[0].cam2_from_cam1, &rot,
+               &dir);
+    return rot;
   };
   std::vector<double> pos, neg;
   int silent[2] = {0, 0};
@@ -240,7 +300,9 @@ int main(int argc, char** argv) {
           << score << '\t' << ev.num_found_displaced << '\t'
           << ev.models_checked << '\t' << ev.models_found << '\t'
           << verifier.Features(e.pair).relative_burstiness << '\t'
-          << relative(graph, e.pair) << '\n';
+          << relative(graph, e.pair) << '\t'
+          << median_view_angle(e.pair, ev.hypothesis) << '\t'
+          << best_rotation_error(e.pair) << '\n';
     }
   }
   std::cout << "pairs: " << pos.size() << " true, " << neg.size()

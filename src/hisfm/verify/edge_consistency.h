@@ -6,7 +6,8 @@
 // spanning tree and flag a split whose two sides, joined, predict each
 // other's unique structure where the other side does not see it. Here the
 // sides are the ego models (local_model.h) of the pair's images i and j,
-// and the join is the pair itself: for each of its relative pose hypotheses
+// each built from its image's own side of the pair (SideNeighbours), and
+// the join is the pair itself: for each of its relative pose hypotheses
 // the depths of the pair's inliers that are model points fix the scale of
 // each model against the pair's baseline (their agreement measures how well
 // the pair joins the models); the best-joining hypothesis places model j in

@@ -369,8 +369,15 @@ LocalModel BuildTripletModel(GeometryCache& cache, ImageId ego, ImageId a,
 LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                          ImageId ego, ImageId exclude,
                          const LocalModelOptions& options) {
-  const std::vector<ImageId> candidates =
-      StrongestNeighbours(graph, ego, options.num_candidates, exclude);
+  return BuildEgoModelFrom(
+      cache, ego,
+      StrongestNeighbours(graph, ego, options.num_candidates, exclude),
+      options);
+}
+
+LocalModel BuildEgoModelFrom(GeometryCache& cache, ImageId ego,
+                             const std::vector<ImageId>& candidates,
+                             const LocalModelOptions& options) {
   LocalModel best;
   for (size_t x = 0; x < candidates.size(); ++x) {
     for (size_t y = x + 1; y < candidates.size(); ++y) {
@@ -406,6 +413,25 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
     }
   }
   return best;
+}
+
+std::vector<ImageId> SideNeighbours(const ViewGraph& graph, ImageId ego,
+                                    ImageId other, size_t count,
+                                    double other_side_ratio) {
+  std::vector<ImageId> out;
+  if (!graph.HasImage(ego)) return out;
+  const size_t index = graph.IndexOf(ego);
+  for (const size_t e :
+       StrongestEdges(graph, index, graph.IncidentEdges(index).size())) {
+    if (out.size() >= count) break;
+    const ImageId x = graph.OtherEnd(e, ego);
+    if (x == other) continue;
+    if (graph.Weight(ego, x) < other_side_ratio * graph.Weight(other, x)) {
+      continue;
+    }
+    out.push_back(x);
+  }
+  return out;
 }
 
 }  // namespace hisfm

@@ -154,4 +154,26 @@ LocalModel BuildEgoModel(GeometryCache& cache, const ViewGraph& graph,
                          ImageId ego, ImageId exclude,
                          const LocalModelOptions& options);
 
+/// The ego model of `ego` from triplets over `candidates` (its neighbours,
+/// strongest first); BuildEgoModel uses its num_candidates strongest.
+LocalModel BuildEgoModelFrom(GeometryCache& cache, ImageId ego,
+                             const std::vector<ImageId>& candidates,
+                             const LocalModelOptions& options);
+
+/// The side of `ego` when the pair (ego, other) is tested: the `count`
+/// strongest neighbours of `ego` in `graph`, leaving out `other` and every
+/// neighbour x that belongs to the other side, w(ego, x) < other_side_ratio
+/// * w(other, x). Heinly et al. (ECCV 2014) split a reconstruction into two
+/// camera groups before comparing them; a model that holds images of the
+/// other side shares their points with it (they are no longer unique, and
+/// the test has little to predict), and an image glued to the other place
+/// by doppelgangers of its own would be modelled in that place. Neighbours
+/// that both images see about equally (the images between two true
+/// neighbours along a path) stay on both sides: taking them from one would
+/// leave its model to weaker, often repeated, neighbours. With
+/// other_side_ratio <= 1 no neighbour leaves both sides.
+std::vector<ImageId> SideNeighbours(const ViewGraph& graph, ImageId ego,
+                                    ImageId other, size_t count,
+                                    double other_side_ratio);
+
 }  // namespace hisfm

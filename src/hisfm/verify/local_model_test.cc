@@ -239,6 +239,33 @@ TEST(LocalModel, ConsistencyAndIndexOf) {
   EXPECT_EQ(m.IndexOf(4), -1);
 }
 
+// Pair (1, 2) of two places: 1's neighbours 3 and 4, 2's neighbour 5, and 6
+// seen about equally by both. 1 is glued to 5 by a doppelganger (5 is more
+// than twice as strongly joined to 2), and 2 to 4 (4 is 1's).
+TEST(SideNeighbours, LeaveOutTheOtherSideAndKeepSharedNeighbours) {
+  const ViewGraph graph = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 500}, {ImagePair(1, 3), 900}, {ImagePair(1, 4), 300},
+       {ImagePair(1, 5), 400}, {ImagePair(1, 6), 350}, {ImagePair(2, 5), 1000},
+       {ImagePair(2, 4), 100}, {ImagePair(2, 6), 400}, {ImagePair(3, 4), 50}});
+  // 1: by weight 3, 2, 5, 6, 4; 2 is the pair's other image and 5 belongs
+  // to 2 (400 < 0.5 * 1000); 6 is shared (350 >= 0.5 * 400).
+  EXPECT_EQ(SideNeighbours(graph, 1, 2, 4, 0.5),
+            (std::vector<ImageId>{3, 6, 4}));
+  // 2: by weight 5, 1, 6, 4; 4 belongs to 1 (100 < 0.5 * 300).
+  EXPECT_EQ(SideNeighbours(graph, 2, 1, 4, 0.5), (std::vector<ImageId>{5, 6}));
+  // At most `count` neighbours, strongest first.
+  EXPECT_EQ(SideNeighbours(graph, 1, 2, 2, 0.5), (std::vector<ImageId>{3, 6}));
+  // Ratio 0 only leaves out the other image; ratio 1 splits every neighbour
+  // seen by both by the stronger edge (6 goes to 2: 350 < 400).
+  EXPECT_EQ(SideNeighbours(graph, 1, 2, 4, 0.0),
+            (std::vector<ImageId>{3, 5, 6, 4}));
+  EXPECT_EQ(SideNeighbours(graph, 1, 2, 4, 1.0), (std::vector<ImageId>{3, 4}));
+  EXPECT_EQ(SideNeighbours(graph, 2, 1, 4, 1.0), (std::vector<ImageId>{5, 6}));
+  // An unknown image has no side.
+  EXPECT_TRUE(SideNeighbours(graph, 9, 1, 4, 0.5).empty());
+}
+
 TEST(PredictVisible, GeometryScaleAndViewingAngle) {
   ImageGeometry target;
   target.camera = CameraProjection(SimplePinholeCamera(1, 1000, 800, 500));

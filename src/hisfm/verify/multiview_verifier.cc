@@ -13,6 +13,9 @@ void MultiViewVerifierOptions::Check() const {
   geometry.Check();
   local_model.Check();
   edge_test.Check();
+  HISFM_CHECK_OPTION(other_side_ratio,
+                     other_side_ratio >= 0 && other_side_ratio <= 1,
+                     "in [0, 1]");
 }
 
 MultiViewVerifier::MultiViewVerifier(const Database& database,
@@ -30,22 +33,16 @@ MultiViewVerifier::MultiViewVerifier(const Database& database,
   cache_.SetKeypointDegrees(std::move(degrees));
 }
 
-const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId exclude) {
-  // The model only depends on `exclude` if it is among the candidates.
-  const std::vector<ImageId> candidates = StrongestNeighbours(
-      ranking_, ego, options_.local_model.num_candidates);
-  const ImageId key_exclude =
-      std::find(candidates.begin(), candidates.end(), exclude) !=
-              candidates.end()
-          ? exclude
-          : kInvalidImageId;
-  const auto key = std::make_pair(ego, key_exclude);
+const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId other) {
+  const size_t count = options_.local_model.num_candidates;
+  std::vector<ImageId> candidates =
+      SideNeighbours(ranking_, ego, other, count, options_.other_side_ratio);
+  auto key = std::make_pair(ego, std::move(candidates));
   auto it = models_.find(key);
   if (it != models_.end()) return it->second;
-  return models_
-      .emplace(key, BuildEgoModel(cache_, ranking_, ego, key_exclude,
-                                  options_.local_model))
-      .first->second;
+  LocalModel model =
+      BuildEgoModelFrom(cache_, ego, key.second, options_.local_model);
+  return models_.emplace(std::move(key), std::move(model)).first->second;
 }
 
 const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {

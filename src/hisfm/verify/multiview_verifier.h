@@ -37,6 +37,11 @@ struct MultiViewVerifierOptions {
   /// identical facades the strongest pairs by inliers are often
   /// doppelgangers.
   bool rank_by_burstiness = true;
+  /// Build the two ego models of a tested pair on their own sides
+  /// (SideNeighbours in local_model.h): each image's model leaves out the
+  /// neighbours x with w(ego, x) < other_side_ratio * w(other, x), by the
+  /// ranking weights. 0: each model only leaves out the other image.
+  double other_side_ratio = 0.5;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -68,8 +73,10 @@ class MultiViewVerifier : public BridgeScorer {
   /// test joined by if the pair was evaluated, else the best-supported one;
   /// false if the pair has no pose.
   bool RelativeRotation(ImageId from, ImageId to, Eigen::Quaterniond* to_from_from);
-  /// The ego model of `ego` built without `exclude` (computed once).
-  const LocalModel& EgoModel(ImageId ego, ImageId exclude);
+  /// The ego model of `ego` for the test of the pair (ego, other): built on
+  /// ego's side of the pair (disjoint_sides), else without `other`
+  /// (computed once per set of candidate neighbours).
+  const LocalModel& EgoModel(ImageId ego, ImageId other);
   /// The pair's inlier matches (oriented as stored: the smaller image id's
   /// keypoints first) that agree with the geometry its test accepted; all
   /// of them if the test could not judge it.
@@ -88,7 +95,8 @@ class MultiViewVerifier : public BridgeScorer {
   // The graph by which ego models rank neighbours.
   ViewGraph ranking_;
   GeometryCache cache_;
-  std::map<std::pair<ImageId, ImageId>, LocalModel> models_;
+  // Ego models by ego image and candidate neighbours.
+  std::map<std::pair<ImageId, std::vector<ImageId>>, LocalModel> models_;
   std::map<ImagePair, EdgeEvidence> evidence_;
 };
 

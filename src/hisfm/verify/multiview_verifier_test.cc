@@ -200,7 +200,7 @@ TEST_F(MultiViewVerifierTest, ConsistentInliersAreASubsetOfThePairsInliers) {
   EXPECT_GT(true_after, true_before / 2);
 }
 
-TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndExcludeTheOtherImage) {
+TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndLieOnTheirSide) {
   const ImagePair pair = street_->graph.Pairs().front();
   const LocalModel& a = verifier_->EgoModel(pair.image_id1, pair.image_id2);
   const LocalModel& b = verifier_->EgoModel(pair.image_id1, pair.image_id2);
@@ -209,6 +209,25 @@ TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndExcludeTheOtherImage) {
     EXPECT_EQ(a.images[0], pair.image_id1);
     EXPECT_EQ(a.IndexOf(pair.image_id2), -1);
   }
+  // Every model of a tested pair lies on its own side: none of its images
+  // is joined more than twice as strongly to the pair's other image.
+  const ViewGraph& ranking = verifier_->RankingGraph();
+  const double ratio = MultiViewVerifierOptions().other_side_ratio;
+  int num_models = 0;
+  for (const ImagePair& p : street_->graph.Pairs()) {
+    for (const auto& [ego, other] : {std::make_pair(p.image_id1, p.image_id2),
+                                     std::make_pair(p.image_id2, p.image_id1)}) {
+      const LocalModel& m = verifier_->EgoModel(ego, other);
+      if (m.empty()) continue;
+      ++num_models;
+      for (size_t v = 1; v < m.images.size(); ++v) {
+        EXPECT_GE(ranking.Weight(ego, m.images[v]),
+                  ratio * ranking.Weight(other, m.images[v]))
+            << ego << " " << other << " " << m.images[v];
+      }
+    }
+  }
+  EXPECT_GT(num_models, 10);
 }
 
 TEST_F(MultiViewVerifierTest, TrueTrianglesCloseInRotation) {
@@ -258,6 +277,11 @@ TEST(MultiViewVerifierOptions, CheckRejectsOutOfRangeValues) {
   EXPECT_THROW(o.Check(), Error);
   o = MultiViewVerifierOptions();
   o.geometry.relative_pose.num_samples = 0;
+  EXPECT_THROW(o.Check(), Error);
+  o = MultiViewVerifierOptions();
+  o.other_side_ratio = 1.5;
+  EXPECT_THROW(o.Check(), Error);
+  o.other_side_ratio = -0.1;
   EXPECT_THROW(o.Check(), Error);
 }
 
