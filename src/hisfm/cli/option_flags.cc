@@ -33,6 +33,12 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "Images per tree for the automatic K");
   visit("--HiSfM.verify_threshold", h.skeleton.verify_threshold,
         "Minimum verifier score for a bridge (tau)");
+  visit("--HiSfM.redundant_threshold", h.skeleton.redundant_threshold,
+        "Minimum score of a redundant bridge: trees after the first, "
+        "backup, top-weight and connectivity bridges (at least tau)");
+  visit("--HiSfM.redundant_budget_trees", h.skeleton.redundant_budget_trees,
+        "After the first tree, verify at most this many times "
+        "max(1, K - 1) trees' worth of redundant bridges");
   visit("--HiSfM.num_top_bridges", h.skeleton.num_top_bridges,
         "Extra verified top-weight bridges after the trees");
   visit("--HiSfM.num_backup_bridges", h.skeleton.num_backup_bridges,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <queue>
 #include <set>
@@ -25,6 +26,11 @@ void SkeletonOptions::Check() const {
   HISFM_CHECK_OPTION(num_backup_bridges, num_backup_bridges >= 0, ">= 0");
   HISFM_CHECK_OPTION(weak_link_max_inliers, weak_link_max_inliers >= 0, ">= 0");
   HISFM_CHECK_OPTION(max_verify_batch_size, max_verify_batch_size >= 1, ">= 1");
+  HISFM_CHECK_OPTION(redundant_threshold,
+                     redundant_threshold >= 0.0 && redundant_threshold <= 1.0,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(redundant_budget_trees, redundant_budget_trees >= 0,
+                     ">= 0");
   HISFM_CHECK_OPTION(fallback_threshold,
                      fallback_threshold >= 0.0 && fallback_threshold <= 1.0,
                      "in [0.0, 1.0]");
@@ -32,6 +38,11 @@ void SkeletonOptions::Check() const {
                      max_cycle_rotation_deg >= 0.0 &&
                          max_cycle_rotation_deg <= 180.0,
                      "in [0.0, 180.0]");
+}
+
+double SkeletonOptions::ThresholdFor(BridgeRole role, int tree) const {
+  if (role == BridgeRole::kTree && tree == 0) return verify_threshold;
+  return std::max(verify_threshold, redundant_threshold);
 }
 
 int SkeletonOptions::NumTreesFor(size_t num_images) const {
@@ -244,7 +255,8 @@ void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges,
   // ascending.
   std::vector<size_t> open;
   for (size_t k = 0; k < bridges.size(); ++k) {
-    if (!cache->Has(k) || cache->Get(k) >= options.verify_threshold) {
+    if (!cache->Has(k) ||
+        cache->Get(k) >= options.ThresholdFor(BridgeRole::kConnectivity, -1)) {
       open.push_back(k);
     }
   }
@@ -397,6 +409,20 @@ class SkeletonBuilder {
   UnionFind held_communities_;
   // Rotation error of the cycle each bridge closed when admitted (-1: none).
   std::vector<double> cycle_error_;
+  // The tree PackTrees is packing (0-based).
+  int tree_ = 0;
+  // Pairs verified when the first tree was done, and how many more the
+  // redundant bridges may have verified (SkeletonOptions::
+  // redundant_budget_trees); unlimited until the first tree is done.
+  size_t verified_after_first_tree_ = 0;
+  size_t redundant_budget_ = SIZE_MAX;
+  // New verifications the redundant bridges may still ask for.
+  size_t RedundantBudgetLeft() const {
+    if (redundant_budget_ == SIZE_MAX) return SIZE_MAX;
+    const size_t spent =
+        skeleton_.num_verified - verified_after_first_tree_;
+    return spent >= redundant_budget_ ? 0 : redundant_budget_ - spent;
+  }
 };
 
 std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
@@ -420,6 +446,12 @@ std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
 
 bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   if (rejected_seen_[k]) return false;
+  // A redundant bridge past the verification budget is not scored (and not
+  // rejected: it is simply not taken).
+  const bool redundant = !(role == BridgeRole::kTree && tree_ == 0);
+  if (redundant && !cache_->Has(k) && RedundantBudgetLeft() == 0) {
+    return false;
+  }
   // The cycle first: it costs two breadth-first searches' worth of work
   // and the poses of the pairs on it, where a score can cost a network
   // evaluation; a bridge its cycle rejects is never scored.
@@ -443,7 +475,7 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
     }
   }
   const double score = cache_->Get(k);
-  if (score < options_.verify_threshold) {
+  if (score < options_.ThresholdFor(role, tree_)) {
     Reject(k, score, role, cycle_error_[k]);
     return false;
   }
@@ -467,6 +499,7 @@ bool SkeletonBuilder::PackTrees() {
   // Rejections met since the last bridge taken: sizes speculative batches.
   size_t rejection_run = 0;
   for (int t = 0; t < skeleton_.num_trees && max_tree_edges > 0; ++t) {
+    tree_ = t;
     UnionFind uf(m_);
     std::vector<uint32_t> tree_pairs;
     size_t tree_size = 0;
@@ -483,7 +516,9 @@ bool SkeletonBuilder::PackTrees() {
         // rejections (so a scene where most bridges pass stays lazy). They
         // remain valid candidates whatever the outcome, unless an earlier
         // one in the batch is taken.
-        const size_t want = std::min(batch, rejection_run + 1);
+        const size_t want = std::min(
+            {batch, rejection_run + 1,
+             t == 0 ? SIZE_MAX : std::max<size_t>(1, RedundantBudgetLeft())});
         std::vector<size_t> todo;
         const size_t end = std::min(candidates.size(), i + kMaxLookahead);
         for (size_t q = i; q < end && todo.size() < want; ++q) {
@@ -508,6 +543,12 @@ bool SkeletonBuilder::PackTrees() {
       Take(k, cache_->Get(k), BridgeRole::kTree, t);
     }
     all_trees_span &= tree_size == max_tree_edges;
+    if (t == 0) {
+      verified_after_first_tree_ = skeleton_.num_verified;
+      redundant_budget_ = static_cast<size_t>(std::ceil(
+          options_.redundant_budget_trees *
+          std::max(1, skeleton_.num_trees - 1) * max_tree_edges));
+    }
     for (uint32_t kappa : tree_pairs) used_[kappa] = 1;
     // Later trees never take a rejected bridge or one of a used pair.
     candidates.erase(

@@ -35,6 +35,9 @@
 
 namespace hisfm {
 
+/// Why a bridge is in the skeleton.
+enum class BridgeRole { kTree, kTopWeight, kBackup, kConnectivity, kFallback };
+
 struct SkeletonOptions {
   /// Number of spanning trees K; 0 = max(1, round(n / images_per_tree)).
   int num_trees = 0;
@@ -42,6 +45,26 @@ struct SkeletonOptions {
   int images_per_tree = 300;
   /// Minimum verifier score for a bridge to be taken (tau).
   double verify_threshold = 0.5;
+  /// Minimum score of a bridge that adds redundancy rather than
+  /// connectivity: the bridges of every tree after the first, backups,
+  /// top-weight and connectivity bridges (the larger of this and
+  /// verify_threshold applies). A deviation from Algorithm 1, which uses tau
+  /// for every tree: the first tree already joins the communities, and a
+  /// false redundant bridge folds the model as surely as a false tree
+  /// bridge, while a missing one only costs robustness. In a street, whose
+  /// community graph is a chain, the second tree can only be packed from
+  /// long-range pairs, most of them doppelgangers, and at tau = 0.5 a
+  /// calibrated score lets through up to half of what it meets.
+  double redundant_threshold = 0.8;
+  /// Verification budget of the redundant bridges, in spanning trees: after
+  /// the first tree, the scorer is asked about at most
+  /// redundant_budget_trees * max(1, K - 1) * (m - 1) more bridges (m
+  /// communities; a tree has m - 1 edges); bridges beyond it are not taken.
+  /// Algorithm 1 verifies every bridge Kruskal meets, and once a later tree
+  /// cannot span (a street's chain of communities has no second spanning
+  /// tree of true pairs) it meets nearly all of them: this keeps the cost
+  /// of redundancy to about one verification per edge it may add.
+  double redundant_budget_trees = 1.0;
   /// Extra top-weight bridges added after the trees (verified, each on a
   /// community pair not used yet).
   int num_top_bridges = 0;
@@ -85,12 +108,12 @@ struct SkeletonOptions {
   double max_cycle_rotation_deg = 45.0;
 
   void Check() const;
+  /// The threshold a bridge of `role` must reach (`tree`: its tree index,
+  /// for kTree).
+  double ThresholdFor(BridgeRole role, int tree) const;
   /// K for a graph of `num_images` images.
   int NumTreesFor(size_t num_images) const;
 };
-
-/// Why a bridge is in the skeleton.
-enum class BridgeRole { kTree, kTopWeight, kBackup, kConnectivity, kFallback };
 
 /// A bridge that was scored, with its outcome.
 struct BridgeRecord {

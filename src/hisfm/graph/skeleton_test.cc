@@ -201,6 +201,8 @@ TEST(Skeleton, VerifiesOnlyBridgesKruskalWouldTakeOnceEach) {
     SkeletonOptions options;
     options.num_trees = 2;
     options.num_backup_bridges = 0;
+    // Algorithm 1 as the paper states it: no budget for the second tree.
+    options.redundant_budget_trees = 1e6;
     const Skeleton s = BuildSkeleton(g, c, &scorer, options);
     const std::vector<ImagePair> expected =
         ReferenceScoredBridges(g, c, 2, scorer.reject);
@@ -234,6 +236,7 @@ TEST(Skeleton, BatchedScoringMakesTheSameDecisions) {
     batched.batch = 8;
     SkeletonOptions options;
     options.num_trees = 2;
+    options.redundant_budget_trees = 1e6;
     const Skeleton a = BuildSkeleton(g, c, &lazy, options);
     const Skeleton b = BuildSkeleton(g, c, &batched, options);
     EXPECT_EQ(a.Edges(), b.Edges());
@@ -243,6 +246,65 @@ TEST(Skeleton, BatchedScoringMakesTheSameDecisions) {
     EXPECT_LT(b.num_scorer_calls, b.num_verified);
     EXPECT_EQ(a.num_scorer_calls, a.num_verified);
   }
+}
+
+// A scorer that gives every bridge the same score.
+class ConstantScorer : public BridgeScorer {
+ public:
+  explicit ConstantScorer(double score) : score_(score) {}
+  size_t num_scored = 0;
+  std::string Name() const override { return "constant"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    num_scored += pairs.size();
+    return std::vector<double>(pairs.size(), score_);
+  }
+
+ private:
+  double score_;
+};
+
+TEST(Skeleton, RedundantBridgesNeedTheStricterThresholdWithinABudget) {
+  for (uint32_t seed = 0; seed < 5; ++seed) {
+    const ViewGraph g = ClusteredGraph(8, 4, 0.3, seed);
+    const Communities c = ComputeCommunities(g, CommunityOptions());
+    const size_t tree_edges = c.NumCommunities() - 1;
+    SkeletonOptions options;
+    options.num_trees = 3;
+    options.num_backup_bridges = 0;
+    options.max_cycle_rotation_deg = 0;
+    // Every bridge scores 0.7: enough for the first tree (tau = 0.5), not
+    // for the redundant ones (0.8). The first tree spans; later trees and
+    // the connectivity repair verify at most (K - 1) trees' worth of
+    // bridges and take none.
+    ConstantScorer middling(0.7);
+    const Skeleton s = BuildSkeleton(g, c, &middling, options);
+    std::map<int, size_t> tree_size;
+    for (const BridgeRecord& b : s.bridges) ++tree_size[b.tree];
+    EXPECT_EQ(tree_size[0], tree_edges) << "seed " << seed;
+    EXPECT_EQ(s.bridges.size(), tree_edges);
+    EXPECT_EQ(s.num_verified, tree_edges + 2 * tree_edges);
+    EXPECT_EQ(middling.num_scored, s.num_verified);
+    // Scoring 0.9, the redundant bridges pass; the budget is the same.
+    ConstantScorer confident(0.9);
+    const Skeleton t = BuildSkeleton(g, c, &confident, options);
+    EXPECT_GT(t.bridges.size(), tree_edges);
+    EXPECT_LE(t.num_verified, tree_edges + 2 * tree_edges);
+    // The threshold is never below tau.
+    options.verify_threshold = 0.95;
+    options.redundant_threshold = 0.5;
+    EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 1), 0.95);
+    EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 0), 0.95);
+  }
+  SkeletonOptions options;
+  EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 0), 0.5);
+  EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 1), 0.8);
+  EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kConnectivity, -1), 0.8);
+  EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kBackup, -1), 0.8);
+  options.redundant_budget_trees = -1;
+  EXPECT_THROW(options.Check(), Error);
+  options = SkeletonOptions();
+  options.redundant_threshold = 1.5;
+  EXPECT_THROW(options.Check(), Error);
 }
 
 TEST(Skeleton, BatchesStayLazyWhileBridgesPass) {
@@ -375,6 +437,9 @@ TEST(Skeleton, BackupBridgesPerWeakCommunityPair) {
   SkeletonOptions options;
   options.num_trees = 1;
   options.weak_link_max_inliers = 50;
+  // Three communities: the default budget (two verifications) would stop
+  // the backups below.
+  options.redundant_budget_trees = 10;
   using Roleset = std::set<std::pair<ImagePair, BridgeRole>>;
   const Roleset tree = {{ImagePair(1, 5), BridgeRole::kTree},
                         {ImagePair(1, 3), BridgeRole::kTree}};
