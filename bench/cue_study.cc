@@ -134,8 +134,10 @@ int main(int argc, char** argv) {
     debug_egos.emplace_back(debug_pairs[k + 1], debug_pairs[k]);
   }
   for (const auto& [ego, other] : debug_egos) {
-    const auto cands = SideNeighbours(verifier.RankingGraph(), ego, other, 4,
-                                      MultiViewVerifierOptions().other_side_ratio);
+    const auto cands = SideNeighbours(
+        verifier.RankingGraph(), ego, other,
+        verifier_options.local_model.num_candidates,
+        verifier_options.other_side_ratio);
     for (size_t x = 0; x < cands.size(); ++x) {
       for (size_t y = x + 1; y < cands.size(); ++y) {
         for (int ha = 0; ha < 2; ++ha) {

@@ -22,6 +22,9 @@ class BridgeScorer {
   virtual std::vector<double> Score(const std::vector<ImagePair>& pairs) = 0;
   /// How many pairs the scorer prefers per call (1 = strictly lazy).
   virtual size_t PreferredBatchSize() const { return 1; }
+  /// True if a score costs nothing (no test is run): verification budgets
+  /// (SkeletonOptions::redundant_budget_trees) do not apply.
+  virtual bool IsFree() const { return false; }
   /// The rotation error (degrees) around the closed walk `cycle` = (v0, v1,
   /// ..., vn, back to v0), each consecutive pair an edge of the view graph:
   /// the angle of the composition of the pairs' relative rotations, which is
@@ -37,6 +40,7 @@ class BridgeScorer {
 class AcceptAllScorer : public BridgeScorer {
  public:
   std::string Name() const override { return "none"; }
+  bool IsFree() const override { return true; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
     return std::vector<double>(pairs.size(), 1.0);
   }

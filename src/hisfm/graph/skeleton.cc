@@ -28,9 +28,11 @@ void SkeletonOptions::Check() const {
   HISFM_CHECK_OPTION(max_verify_batch_size, max_verify_batch_size >= 1, ">= 1");
   HISFM_CHECK_OPTION(redundant_threshold,
                      redundant_threshold >= 0.0 && redundant_threshold <= 1.0,
-                     "in [0, 1]");
-  HISFM_CHECK_OPTION(redundant_budget_trees, redundant_budget_trees >= 0,
-                     ">= 0");
+                     "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(redundant_budget_trees,
+                     redundant_budget_trees >= 0 &&
+                         std::isfinite(redundant_budget_trees),
+                     ">= 0 and finite");
   HISFM_CHECK_OPTION(fallback_threshold,
                      fallback_threshold >= 0.0 && fallback_threshold <= 1.0,
                      "in [0.0, 1.0]");
@@ -238,8 +240,8 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
 // until each component of the full community graph is K-edge-connected.
 // `used[kappa]` marks the community pairs of the skeleton, `kappas` lists
 // them by dense id.
-// `admit(k, role)` verifies bridge k (recording a rejection) and returns
-// whether it may be taken; `take(k)` takes it.
+// `admit(k, role)` verifies bridge k if the budget allows (recording a
+// rejection) and returns whether it may be taken; `take(k)` takes it.
 template <typename AdmitFn, typename TakeFn>
 void RestoreConnectivityAcrossCuts(const std::vector<Bridge>& bridges,
                                    size_t m, int K,
@@ -387,10 +389,19 @@ class SkeletonBuilder {
   // The images of a shortest path from `a` to `b` over the edges held;
   // empty if there is none.
   std::vector<ImageId> HeldPath(ImageId a, ImageId b) const;
-  // Whether bridge k may be taken: its score reaches tau and the cycle it
-  // closes with the skeleton, if any, is rotation consistent. Records a
-  // rejection with `role`.
+  // Whether bridge k may be taken: its score reaches
+  // SkeletonOptions::ThresholdFor(role, tree_) and the cycle it closes with
+  // the skeleton, if any, is rotation consistent. Records a rejection with
+  // `role`. A redundant bridge that would need a new score once the
+  // redundancy budget is spent is refused without being scored or recorded.
   bool Admit(size_t k, BridgeRole role);
+  // New verifications the redundant bridges may still ask for.
+  size_t RedundantBudgetLeft() const {
+    if (redundant_budget_ == SIZE_MAX) return SIZE_MAX;
+    const size_t spent =
+        skeleton_.num_verified - verified_after_first_tree_;
+    return spent >= redundant_budget_ ? 0 : redundant_budget_ - spent;
+  }
 
   const SkeletonOptions& options_;
   const size_t m_;
@@ -416,13 +427,6 @@ class SkeletonBuilder {
   // redundant_budget_trees); unlimited until the first tree is done.
   size_t verified_after_first_tree_ = 0;
   size_t redundant_budget_ = SIZE_MAX;
-  // New verifications the redundant bridges may still ask for.
-  size_t RedundantBudgetLeft() const {
-    if (redundant_budget_ == SIZE_MAX) return SIZE_MAX;
-    const size_t spent =
-        skeleton_.num_verified - verified_after_first_tree_;
-    return spent >= redundant_budget_ ? 0 : redundant_budget_ - spent;
-  }
 };
 
 std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
@@ -516,9 +520,11 @@ bool SkeletonBuilder::PackTrees() {
         // rejections (so a scene where most bridges pass stays lazy). They
         // remain valid candidates whatever the outcome, unless an earlier
         // one in the batch is taken.
-        const size_t want = std::min(
-            {batch, rejection_run + 1,
-             t == 0 ? SIZE_MAX : std::max<size_t>(1, RedundantBudgetLeft())});
+        // Later trees: no more than the redundancy budget has left (none
+        // once it is spent; Admit then refuses the unscored bridge).
+        const size_t want =
+            std::min({batch, rejection_run + 1,
+                      t == 0 ? SIZE_MAX : RedundantBudgetLeft()});
         std::vector<size_t> todo;
         const size_t end = std::min(candidates.size(), i + kMaxLookahead);
         for (size_t q = i; q < end && todo.size() < want; ++q) {
@@ -543,11 +549,14 @@ bool SkeletonBuilder::PackTrees() {
       Take(k, cache_->Get(k), BridgeRole::kTree, t);
     }
     all_trees_span &= tree_size == max_tree_edges;
-    if (t == 0) {
+    if (t == 0 && scorer_ != nullptr && !scorer_->IsFree()) {
       verified_after_first_tree_ = skeleton_.num_verified;
-      redundant_budget_ = static_cast<size_t>(std::ceil(
-          options_.redundant_budget_trees *
-          std::max(1, skeleton_.num_trees - 1) * max_tree_edges));
+      const double budget = std::ceil(options_.redundant_budget_trees *
+                                      std::max(1, skeleton_.num_trees - 1) *
+                                      static_cast<double>(max_tree_edges));
+      redundant_budget_ = budget >= static_cast<double>(SIZE_MAX)
+                              ? SIZE_MAX
+                              : static_cast<size_t>(budget);
     }
     for (uint32_t kappa : tree_pairs) used_[kappa] = 1;
     // Later trees never take a rejected bridge or one of a used pair.
@@ -558,6 +567,8 @@ bool SkeletonBuilder::PackTrees() {
                        }),
         candidates.end());
   }
+  // Bridges admitted from here on are not the first tree's.
+  tree_ = -1;
   return all_trees_span;
 }
 

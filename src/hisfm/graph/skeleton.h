@@ -7,7 +7,12 @@
 // sets of communities, (ii) its community pair was not used by an earlier
 // tree (the diversity set U), and (iii) the disambiguator scores it at least
 // tau. Verification is lazy: only bridges that pass (i) and (ii) are scored,
-// and each at most once. Greedy packing can fail to find K trees that exist;
+// and each at most once. Two deviations for the redundant bridges (every
+// tree after the first and the extra bridges below): they need a stricter
+// score (SkeletonOptions::redundant_threshold), and they are verified within
+// a budget (redundant_budget_trees), because a street's chain of
+// communities has no second spanning tree of true pairs and Algorithm 1
+// would verify nearly every bridge looking for one. Greedy packing can fail to find K trees that exist;
 // the union is then repaired across minimum cuts (Stoer-Wagner) so that it is
 // K-edge-connected, as the paper's Tutte-Nash-Williams argument expects.
 // Optional extra bridges (top-weight ones, and backups for weak links) are
@@ -58,19 +63,24 @@ struct SkeletonOptions {
   double redundant_threshold = 0.8;
   /// Verification budget of the redundant bridges, in spanning trees: after
   /// the first tree, the scorer is asked about at most
-  /// redundant_budget_trees * max(1, K - 1) * (m - 1) more bridges (m
-  /// communities; a tree has m - 1 edges); bridges beyond it are not taken.
+  /// redundant_budget_trees * max(1, K - 1) * (m - c) more bridges (m
+  /// communities in c components of the community graph: the edges of a
+  /// spanning forest); bridges that would need a new score beyond it are
+  /// not taken, so later trees, connectivity repair, backups and top-weight
+  /// bridges (in that order) share it and the last may get none. A free
+  /// scorer (BridgeScorer::IsFree, e.g. --HiSfM.verifier none) has no
+  /// budget. Speculative batches (max_verify_batch_size) count against it.
   /// Algorithm 1 verifies every bridge Kruskal meets, and once a later tree
   /// cannot span (a street's chain of communities has no second spanning
   /// tree of true pairs) it meets nearly all of them: this keeps the cost
   /// of redundancy to about one verification per edge it may add.
   double redundant_budget_trees = 1.0;
   /// Extra top-weight bridges added after the trees (verified, each on a
-  /// community pair not used yet).
+  /// community pair not used yet; within the redundancy budget).
   int num_top_bridges = 0;
   /// For every tree bridge with fewer than weak_link_max_inliers inliers, add
   /// up to this many verified backup bridges between the same two
-  /// communities.
+  /// communities (within the redundancy budget).
   int num_backup_bridges = 1;
   /// Inlier count below which a tree bridge counts as a weak link.
   int weak_link_max_inliers = 50;
@@ -84,8 +94,8 @@ struct SkeletonOptions {
   /// When greedy packing leaves the trees' union less than K-edge-connected
   /// (greedy Kruskal can miss a packing that exists), add the heaviest
   /// verified bridges across each deficient minimum cut until every
-  /// component of the community graph is K-edge-connected or no bridge
-  /// across the cut passes verification.
+  /// component of the community graph is K-edge-connected, no bridge
+  /// across the cut passes verification, or the redundancy budget is spent.
   bool restore_connectivity = true;
   /// When the trees leave communities apart (every bridge between them
   /// scored below verify_threshold), join them through the best-scoring

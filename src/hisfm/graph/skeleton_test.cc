@@ -251,9 +251,11 @@ TEST(Skeleton, BatchedScoringMakesTheSameDecisions) {
 // A scorer that gives every bridge the same score.
 class ConstantScorer : public BridgeScorer {
  public:
-  explicit ConstantScorer(double score) : score_(score) {}
+  explicit ConstantScorer(double score, size_t batch = 1)
+      : score_(score), batch_(batch) {}
   size_t num_scored = 0;
   std::string Name() const override { return "constant"; }
+  size_t PreferredBatchSize() const override { return batch_; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
     num_scored += pairs.size();
     return std::vector<double>(pairs.size(), score_);
@@ -261,6 +263,7 @@ class ConstantScorer : public BridgeScorer {
 
  private:
   double score_;
+  size_t batch_;
 };
 
 TEST(Skeleton, RedundantBridgesNeedTheStricterThresholdWithinABudget) {
@@ -284,23 +287,40 @@ TEST(Skeleton, RedundantBridgesNeedTheStricterThresholdWithinABudget) {
     EXPECT_EQ(s.bridges.size(), tree_edges);
     EXPECT_EQ(s.num_verified, tree_edges + 2 * tree_edges);
     EXPECT_EQ(middling.num_scored, s.num_verified);
+    // Speculative batches of a batched scorer stay within the budget too.
+    ConstantScorer batched(0.7, 8);
+    const Skeleton b = BuildSkeleton(g, c, &batched, options);
+    EXPECT_EQ(b.bridges.size(), tree_edges);
+    EXPECT_LE(b.num_verified, tree_edges + 2 * tree_edges);
+    EXPECT_EQ(batched.num_scored, b.num_verified);
     // Scoring 0.9, the redundant bridges pass; the budget is the same.
     ConstantScorer confident(0.9);
     const Skeleton t = BuildSkeleton(g, c, &confident, options);
     EXPECT_GT(t.bridges.size(), tree_edges);
     EXPECT_LE(t.num_verified, tree_edges + 2 * tree_edges);
-    // The threshold is never below tau.
-    options.verify_threshold = 0.95;
-    options.redundant_threshold = 0.5;
-    EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 1), 0.95);
-    EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 0), 0.95);
+    // Without a scorer (nothing to pay for) there is no budget: the later
+    // trees take as many bridges as with the budget lifted.
+    const Skeleton free_default = BuildSkeleton(g, c, nullptr, options);
+    SkeletonOptions unlimited = options;
+    unlimited.redundant_budget_trees = 1e6;
+    const Skeleton free_unlimited = BuildSkeleton(g, c, nullptr, unlimited);
+    EXPECT_EQ(free_default.bridges.size(), free_unlimited.bridges.size());
+    EXPECT_GT(free_default.bridges.size(), tree_edges);
   }
+  // The threshold is never below tau.
+  SkeletonOptions strict;
+  strict.verify_threshold = 0.95;
+  strict.redundant_threshold = 0.5;
+  EXPECT_DOUBLE_EQ(strict.ThresholdFor(BridgeRole::kTree, 1), 0.95);
+  EXPECT_DOUBLE_EQ(strict.ThresholdFor(BridgeRole::kTree, 0), 0.95);
   SkeletonOptions options;
   EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 0), 0.5);
   EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kTree, 1), 0.8);
   EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kConnectivity, -1), 0.8);
   EXPECT_DOUBLE_EQ(options.ThresholdFor(BridgeRole::kBackup, -1), 0.8);
   options.redundant_budget_trees = -1;
+  EXPECT_THROW(options.Check(), Error);
+  options.redundant_budget_trees = INFINITY;
   EXPECT_THROW(options.Check(), Error);
   options = SkeletonOptions();
   options.redundant_threshold = 1.5;
@@ -475,6 +495,16 @@ TEST(Skeleton, BackupBridgesPerWeakCommunityPair) {
                                     {ImagePair(2, 6), BridgeRole::kBackup}}));
   EXPECT_EQ(Roles(s.rejected),
             (Roleset{{ImagePair(2, 4), BridgeRole::kBackup}}));
+
+  // The default budget, two verifications after the tree (m - 1 = 2),
+  // caps the three backups a verifier that passes them all would give.
+  SkeletonOptions capped = options;
+  capped.redundant_budget_trees = 1;
+  capped.num_backup_bridges = 2;
+  RecordingScorer all_pass;
+  const Skeleton k = BuildSkeleton(g, c, &all_pass, capped);
+  EXPECT_EQ(k.bridges.size(), 4u);
+  EXPECT_EQ(k.num_verified, 4u);
 }
 
 TEST(Hierarchy, EveryLeafIsAttachedToItsScaffold) {

@@ -74,8 +74,9 @@ class MultiViewVerifier : public BridgeScorer {
   /// false if the pair has no pose.
   bool RelativeRotation(ImageId from, ImageId to, Eigen::Quaterniond* to_from_from);
   /// The ego model of `ego` for the test of the pair (ego, other): built on
-  /// ego's side of the pair (disjoint_sides), else without `other`
-  /// (computed once per set of candidate neighbours).
+  /// ego's side of the pair (SideNeighbours with other_side_ratio; ratio 0:
+  /// only without `other`), computed once per list of candidate
+  /// neighbours.
   const LocalModel& EgoModel(ImageId ego, ImageId other);
   /// The pair's inlier matches (oriented as stored: the smaller image id's
   /// keypoints first) that agree with the geometry its test accepted; all

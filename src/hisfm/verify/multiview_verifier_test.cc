@@ -213,6 +213,7 @@ TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndLieOnTheirSide) {
   // is joined more than twice as strongly to the pair's other image.
   const ViewGraph& ranking = verifier_->RankingGraph();
   const double ratio = MultiViewVerifierOptions().other_side_ratio;
+  const size_t count = MultiViewVerifierOptions().local_model.num_candidates;
   int num_models = 0;
   for (const ImagePair& p : street_->graph.Pairs()) {
     for (const auto& [ego, other] : {std::make_pair(p.image_id1, p.image_id2),
@@ -220,6 +221,12 @@ TEST_F(MultiViewVerifierTest, EgoModelsAreCachedAndLieOnTheirSide) {
       const LocalModel& m = verifier_->EgoModel(ego, other);
       if (m.empty()) continue;
       ++num_models;
+      // Its images are the ego image and neighbours of its side.
+      const std::vector<ImageId> side =
+          SideNeighbours(ranking, ego, other, count, ratio);
+      for (size_t v = 1; v < m.images.size(); ++v) {
+        EXPECT_NE(std::find(side.begin(), side.end(), m.images[v]), side.end());
+      }
       for (size_t v = 1; v < m.images.size(); ++v) {
         EXPECT_GE(ranking.Weight(ego, m.images[v]),
                   ratio * ranking.Weight(other, m.images[v]))
