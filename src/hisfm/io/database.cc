@@ -709,6 +709,9 @@ Keypoints Database::ReadKeypoints(ImageId image_id) const {
 }
 
 Descriptors Database::ReadDescriptors(ImageId image_id) const {
+  // The table is optional (validation accepts a database without it: the
+  // mapper needs no descriptors).
+  if (!SqliteHasTable(db_, "descriptors")) return Descriptors();
   SqliteStatement stmt(
       db_, "SELECT rows, cols, data FROM descriptors WHERE image_id = ?");
   sqlite3_bind_int64(stmt.get(), 1, image_id);

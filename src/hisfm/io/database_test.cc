@@ -335,6 +335,11 @@ TEST(Database, FilteredCopyOfOtherSchemas) {
   EXPECT_EQ(out.ReadImages()[2].name, "img3.jpg");
   EXPECT_EQ(out.ReadVerifiedPairs(1).size(), 1u);
   EXPECT_EQ(out.ReadKeypoints(2).rows(), 22);
+  // Without a descriptors table an image has none (found by the database
+  // fuzzer: the validator accepts such a database).
+  Database source(src);
+  EXPECT_EQ(source.ReadDescriptors(2).rows(), 0);
+  EXPECT_EQ(source.ReadKeypoints(2).rows(), 22);
 }
 
 // COLMAP writes its databases in WAL mode. Reading one must leave nothing
