@@ -426,7 +426,8 @@ std::vector<ImageId> SideNeighbours(const ViewGraph& graph, ImageId ego,
     if (out.size() >= count) break;
     const ImageId x = graph.OtherEnd(e, ego);
     if (x == other) continue;
-    if (graph.Weight(ego, x) < other_side_ratio * graph.Weight(other, x)) {
+    if (graph.Edges()[e].weight <
+        other_side_ratio * graph.Weight(other, x)) {
       continue;
     }
     out.push_back(x);

@@ -14,8 +14,8 @@ void MultiViewVerifierOptions::Check() const {
   local_model.Check();
   edge_test.Check();
   HISFM_CHECK_OPTION(other_side_ratio,
-                     other_side_ratio >= 0 && other_side_ratio <= 1,
-                     "in [0, 1]");
+                     other_side_ratio >= 0.0 && other_side_ratio <= 1.0,
+                     "in [0.0, 1.0]");
 }
 
 MultiViewVerifier::MultiViewVerifier(const Database& database,
