@@ -154,6 +154,14 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "Run an extra colmap bundle_adjuster at the end");
   visit("--HiSfM.min_model_size", o->min_model_size,
         "Components with fewer images are not reconstructed");
+  visit("--HiSfM.merge_sub_models", o->merge_sub_models,
+        "Merge colmap's sub-models of a component that share registered "
+        "images instead of keeping the largest");
+  visit("--HiSfM.merge_min_inliers", o->merge.min_inliers,
+        "Shared 3D points that must agree to merge a sub-model");
+  visit("--HiSfM.reseed_rounds", o->reseed_rounds,
+        "Rounds of new models on the images left unregistered, merged "
+        "into the component's model (0: off)");
   visit("--colmap_path", o->colmap.colmap_path,
         "The colmap executable");
 }

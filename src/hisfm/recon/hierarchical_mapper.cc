@@ -27,6 +27,7 @@ namespace hisfm {
 void HierarchicalMapperOptions::Check() const {
   HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
   HISFM_CHECK_OPTION(min_model_size, min_model_size >= 2, ">= 2");
+  HISFM_CHECK_OPTION(reseed_rounds, reseed_rounds >= 0, ">= 0");
   HISFM_CHECK_OPTION(filter_top_pairs, filter_top_pairs >= 0, ">= 0");
   HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
                      scaffold_ba_global_ratio >= 1.0, ">= 1.0");
@@ -39,6 +40,7 @@ void HierarchicalMapperOptions::Check() const {
   hierarchy.Check();
   verifier.Check();
   colmap.Check();
+  merge.Check();
 }
 
 namespace {
@@ -238,6 +240,8 @@ struct ModelFolder {
   // "" if there is no model.
   std::string path;
   size_t num_registered = 0;
+  // Sub-models merged into it (MergedModel).
+  size_t num_merged = 0;
 
   bool empty() const { return path.empty(); }
 };
@@ -247,35 +251,62 @@ ModelFolder ReadModelFolder(const std::string& path) {
   return {path, ReadModelBinary(path).NumRegImages()};
 }
 
-// Largest model folder under `path` (numbered sub-folders; empty if none).
-// The others are dropped: each is logged with its size.
-ModelFolder LargestModel(const std::string& path) {
-  std::vector<ModelFolder> models;
+// The model of the numbered sub-model folders under `path` (empty if none):
+// the largest, with the others that share registered images merged into it
+// when `options.merge_sub_models` (model_merge.h; the merged model is
+// written to `path`/merged). Sub-models left out are logged with their sizes.
+ModelFolder MergedModel(const std::string& path,
+                        const HierarchicalMapperOptions& options) {
+  const std::vector<std::string> folders = NumberedModelFolders(path);
+  if (folders.empty()) return {};
+  std::vector<Reconstruction> models;
+  for (const std::string& folder : folders) {
+    models.push_back(ReadModelBinary(folder));
+  }
+  ModelMergeResult merged;
+  if (options.merge_sub_models) {
+    merged = MergeModels(models, options.merge);
+  } else {
+    for (size_t i = 0; i < models.size(); ++i) {
+      if (models[i].NumRegImages() > models[merged.base].NumRegImages()) {
+        merged.base = i;
+      }
+    }
+    for (size_t i = 0; i < models.size(); ++i) {
+      if (i == merged.base) continue;
+      ModelMergeStep step;
+      step.model = i;
+      step.num_images = models[i].NumRegImages();
+      merged.steps.push_back(step);
+    }
+  }
+  const std::string& base = folders[merged.base];
+  for (const ModelMergeStep& step : merged.steps) {
+    if (step.merged) {
+      HISFM_LOG_INFO(
+          "merged sub-model {} ({} registered images) into {}: {} shared "
+          "image(s), {} of {} shared points agree",
+          folders[step.model], step.num_images, base, step.num_common_images,
+          step.num_inliers, step.num_correspondences);
+    } else {
+      HISFM_LOG_WARN(
+          "dropping sub-model {} ({} registered images; {} shared image(s), "
+          "{} of {} shared points agree); keeping {} ({} images)",
+          folders[step.model], step.num_images, step.num_common_images,
+          step.num_inliers, step.num_correspondences, base,
+          models[merged.base].NumRegImages());
+    }
+  }
+  if (!options.merge_sub_models || merged.NumMerged() == 0) {
+    return {base, models[merged.base].NumRegImages()};
+  }
+  const std::string out = path + "/merged";
   std::error_code ec;
-  if (!fs::is_directory(path, ec)) return {};
-  for (const auto& entry : fs::directory_iterator(path)) {
-    if (!entry.is_directory() ||
-        !fs::exists(entry.path() / "images.bin")) {
-      continue;
-    }
-    models.push_back(ReadModelFolder(entry.path().string()));
-  }
-  std::sort(models.begin(), models.end(),
-            [](const ModelFolder& a, const ModelFolder& b) {
-              return a.path < b.path;
-            });
-  ModelFolder best;
-  for (const ModelFolder& m : models) {
-    if (m.num_registered > best.num_registered) best = m;
-  }
-  for (const ModelFolder& m : models) {
-    if (m.path != best.path) {
-      HISFM_LOG_WARN("dropping sub-model {} ({} registered images); keeping {} "
-                     "({} images)",
-                     m.path, m.num_registered, best.path, best.num_registered);
-    }
-  }
-  return best;
+  fs::remove_all(out, ec);
+  AtomicDirectory dir(out);
+  WriteModelBinary(merged.model, dir.path());
+  dir.Commit();
+  return {out, merged.model.NumRegImages(), merged.NumMerged()};
 }
 
 // The options of a component's filtered databases: the multi-view
@@ -401,7 +432,7 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
     RunColmapWithProgress(options.colmap, args, run.Log(),
                           "Scaffold: registering images",
                           comp.skeleton_images.size(), ParseMapperProgress);
-    outcome.model = LargestModel(run.dir + "/scaffold");
+    outcome.model = MergedModel(run.dir + "/scaffold", options);
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
@@ -483,7 +514,7 @@ ModelFolder AttachLeaves(const ComponentRun& run,
   times->attach += seconds;
   const ModelFolder attached = fs::exists(out_dir + "/images.bin")
                                   ? ReadModelFolder(out_dir)
-                                  : LargestModel(out_dir);
+                                  : MergedModel(out_dir, options);
   if (attached.empty() && !failure.empty()) throw Error(failure);
   ThrowUnless(!attached.empty(),
               StrCat("colmap wrote no model after attaching leaves; see ",
@@ -601,14 +632,126 @@ std::string CheckMapperPaths(const MapperPaths& paths,
   return work;
 }
 
+// Re-seeds the images of the component that are still unregistered:
+// colmap mapper starts new models on them and their registered neighbours
+// (on the hierarchy's and the reserve edges only), those that share
+// registered images with the component's model are merged into it
+// (model_merge.h), and one more attach run extends the merged model.
+// Incremental SfM cannot always continue a model into a region it entered
+// through one image: the next image there needs 3D points that only it and
+// that image see, and nothing triangulated them. A model started inside the
+// region has them. Repeats up to options.reseed_rounds times while it
+// registers more images; returns the best model.
+ModelFolder ReseedUnregistered(const ComponentRun& run,
+                               const HierarchyComponent& comp,
+                               const LoadedInput& in,
+                               const HierarchicalMapperOptions& options,
+                               const ModelFolder& model, StageTimes* times) {
+  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
+  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
+  for (const ViewGraphEdge& e : in.reserve_edges) {
+    if (members.count(e.pair.image_id1) && members.count(e.pair.image_id2)) {
+      edges.insert(e.pair);
+    }
+  }
+  ModelFolder current = model;
+  for (int round = 0; round < options.reseed_rounds; ++round) {
+    const Reconstruction base = ReadModelBinary(current.path);
+    std::set<ImageId> missing;
+    for (const ImageId id : comp.images) {
+      if (!base.images.count(id)) missing.insert(id);
+    }
+    if (missing.empty()) break;
+    std::set<ImageId> seeded = missing;
+    for (const ImagePair& e : edges) {
+      if (missing.count(e.image_id1) != missing.count(e.image_id2)) {
+        seeded.insert(e.image_id1);
+        seeded.insert(e.image_id2);
+      }
+    }
+    const std::string stage = "reseed" + std::to_string(round);
+    LogHeading(StrCat("Reseed: new models on ", missing.size(),
+                      " unregistered image(s) and ",
+                      seeded.size() - missing.size(),
+                      " registered neighbour(s)"));
+    Timer timer;
+    const std::string database = run.dir + "/" + stage + ".db";
+    WriteFilteredDatabase(run.database_path, database,
+                          {edges.begin(), edges.end()},
+                          ComponentDatabaseOptions(in));
+    WriteImageList({seeded.begin(), seeded.end()}, in.names,
+                   run.dir + "/" + stage + "_images.txt");
+    times->filter_databases += timer.ElapsedSeconds();
+    const std::string models_dir = run.dir + "/" + stage + "_models";
+    std::error_code ec;
+    fs::create_directories(models_dir, ec);
+    std::vector<std::string> args = {
+        "mapper", "--database_path", database, "--image_path", run.image_path,
+        "--output_path", models_dir, "--image_list_path",
+        run.dir + "/" + stage + "_images.txt"};
+    args.insert(args.end(), options.mapper_args.begin(),
+                options.mapper_args.end());
+    AddBundleAdjustmentFlags(options, &args);
+    AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
+                   std::to_string(options.min_model_size), &args);
+    Timer seed_timer;
+    try {
+      RunColmapWithProgress(options.colmap, args, run.Log(),
+                            "Reseed: registering images", seeded.size(),
+                            ParseMapperProgress);
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      // colmap ends with an error when it cannot start a further model;
+      // the models it wrote before are still used.
+      HISFM_LOG_WARN("reseed: {}", e.what());
+    }
+    times->attach += seed_timer.ElapsedSeconds();
+    std::vector<Reconstruction> models = {base};
+    for (const std::string& folder : NumberedModelFolders(models_dir)) {
+      models.push_back(ReadModelBinary(folder));
+    }
+    const ModelMergeResult merged = MergeModels(models, options.merge);
+    // The component's model must be in the result (the base, or merged).
+    bool kept = merged.base == 0;
+    for (const ModelMergeStep& step : merged.steps) {
+      if (step.model == 0 && step.merged) kept = true;
+    }
+    HISFM_LOG_INFO("reseed: {} new model(s), {} merged; {} -> {} images",
+                   models.size() - 1, merged.NumMerged(),
+                   base.NumRegImages(),
+                   kept ? merged.model.NumRegImages() : base.NumRegImages());
+    if (!kept || merged.model.NumRegImages() <= base.NumRegImages()) break;
+    AtomicDirectory dir(run.dir + "/" + stage + "_merged");
+    WriteModelBinary(merged.model, dir.path());
+    dir.Commit();
+    const ModelFolder joined = {run.dir + "/" + stage + "_merged",
+                                merged.model.NumRegImages()};
+    ModelFolder attached;
+    try {
+      attached = AttachLeaves(run, comp, options, joined, times, stage,
+                              edges.size());
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      HISFM_LOG_WARN("reseed: {}; keeping the merged model", e.what());
+    }
+    current = attached.num_registered >= joined.num_registered ? attached
+                                                               : joined;
+  }
+  return current;
+}
+
 // One component's final model and its scaffold.
 struct ComponentModel {
   Reconstruction model;
   ScaffoldOutcome scaffold;
+  // Images the re-seeding registered (ReseedUnregistered).
+  size_t num_reseeded = 0;
 };
 
 // Reconstructs one component: filtered databases, scaffold, attached leaves,
-// rescued images, optional global bundle adjustment.
+// rescued and re-seeded images, optional global bundle adjustment.
 ComponentModel ReconstructComponent(const ComponentRun& run,
                                     const HierarchyComponent& comp,
                                     const LoadedInput& in,
@@ -617,9 +760,12 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
   PrepareComponent(run, comp, in, times);
   ComponentModel out;
   out.scaffold = ReconstructScaffold(run, comp, options, times);
-  const ModelFolder attached = RescueUnregistered(
+  const ModelFolder rescued = RescueUnregistered(
       run, comp, in, options,
       AttachLeaves(run, comp, options, out.scaffold.model, times), times);
+  const ModelFolder attached =
+      ReseedUnregistered(run, comp, in, options, rescued, times);
+  out.num_reseeded = attached.num_registered - rescued.num_registered;
   out.model = ReadModelBinary(RefineModel(run, attached, options, times));
   return out;
 }
@@ -632,6 +778,8 @@ nlohmann::json ComponentStats(const ComponentModel& result,
   stats["scaffold_images"] = comp.skeleton_images.size();
   stats["scaffold_registered"] = result.scaffold.model.num_registered;
   stats["scaffold_fallback"] = result.scaffold.fallback;
+  stats["scaffold_merged_sub_models"] = result.scaffold.model.num_merged;
+  stats["reseeded_images"] = result.num_reseeded;
   stats["path"] = std::to_string(index);
   return stats;
 }

@@ -8,6 +8,10 @@
 //   scaffold: colmap mapper --image_list_path <skeleton images> on E_s;
 //   attach:   colmap mapper --input_path <scaffold> on E_H = E_s + E_l;
 //   refine:   colmap bundle_adjuster.
+// Two additions for failing soft: sub-models that colmap splits a stage
+// into are merged through their shared images (model_merge.h), and images
+// left unregistered get new models on E_H (and reserve edges) that are
+// merged the same way and attached again.
 // One model per connected component of the hierarchy.
 #pragma once
 
@@ -17,6 +21,7 @@
 
 #include "hisfm/graph/hierarchy.h"
 #include "hisfm/recon/colmap_runner.h"
+#include "hisfm/recon/model_merge.h"
 #include "hisfm/verify/verifier_factory.h"
 
 namespace hisfm {
@@ -68,6 +73,18 @@ struct HierarchicalMapperOptions {
   int filter_top_pairs = 20;
   /// Components with fewer images are not reconstructed.
   int min_model_size = 3;
+  /// When colmap splits a scaffold (or a model started from scratch) into
+  /// sub-models, merge those that share registered images into the largest
+  /// (model_merge.h) instead of dropping them.
+  bool merge_sub_models = true;
+  /// How sub-models are merged.
+  ModelMergeOptions merge;
+  /// Rounds of re-seeding the images still unregistered after the attach
+  /// stage: new colmap models on them and their registered neighbours (the
+  /// hierarchy's and reserve edges only), merged into the component's model
+  /// where they share registered images, then attached again; a round runs
+  /// only while the previous one registered more. 0 turns it off.
+  int reseed_rounds = 2;
   /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.
   std::vector<std::string> mapper_args;
 

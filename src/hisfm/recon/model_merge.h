@@ -1,0 +1,90 @@
+// Merging sub-models that share registered images.
+//
+// When incremental SfM cannot register the next image of a scaffold (a tree
+// bridge that is true but too weak to register across), colmap mapper starts
+// a new model from the unregistered images, and the new model often starts
+// from, or later registers, an image of the first one; a model re-seeded on
+// the images left unregistered (hierarchical_mapper.h) shares their
+// registered neighbours by construction. A shared image ties the two models
+// together: its pose in each fixes the rotation and translation between
+// them, and the depths, in that image, of the 3D points its keypoints
+// observe in both fix the scale (their median ratio). Each shared image
+// gives one such similarity; the one that most of the shared points agree
+// with (within a fraction of their depth) is kept, as a minimal sample of
+// RANSAC (Fischler and Bolles, 1981) is scored by its consensus. This is the
+// merge step of COLMAP's hierarchical mapper (Schonberger and Frahm,
+// "Structure-from-Motion Revisited", CVPR 2016), which merges the
+// reconstructions of clusters through their common images, applied here to
+// the sub-models of one component: without it, the smaller sub-models are
+// dropped and their images are left to stages whose edges may not reach
+// them.
+#pragma once
+
+#include <vector>
+
+#include "hisfm/io/model.h"
+
+namespace hisfm {
+
+struct ModelMergeOptions {
+  /// A sub-model is merged only if at least this many shared points (a
+  /// keypoint of a shared image observing a 3D point in both models) agree
+  /// with the similarity. The shared image's two poses already fix all but
+  /// the scale; on the synthetic families a single shared image gave 12 to
+  /// 18 such points, with depth ratios within 2% of their median.
+  int min_inliers = 8;
+  /// ... and at least this share of all shared points.
+  double min_inlier_ratio = 0.5;
+  /// A shared point agrees when the mapped point lies within this fraction
+  /// of its depth (in the shared image of the model merged into) of the
+  /// model's point.
+  double max_relative_error = 0.1;
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
+
+/// How one sub-model was merged.
+struct ModelMergeStep {
+  /// Index of the sub-model in the input list.
+  size_t model = 0;
+  size_t num_images = 0;
+  /// Registered images it shares with the merged model.
+  size_t num_common_images = 0;
+  size_t num_correspondences = 0;
+  size_t num_inliers = 0;
+  /// True if it was merged.
+  bool merged = false;
+};
+
+/// The result of merging a list of sub-models.
+struct ModelMergeResult {
+  /// The largest sub-model with every sub-model merged into it that could
+  /// be; in the largest one's frame.
+  Reconstruction model;
+  /// Index of the largest sub-model (the frame of `model`).
+  size_t base = 0;
+  /// One step per other sub-model, in the order they were tried.
+  std::vector<ModelMergeStep> steps;
+  /// Number of sub-models merged into the base.
+  size_t NumMerged() const;
+};
+
+/// Maps `other` into `model`'s frame through their shared images and adds
+/// it: images only in `other` get their poses moved, the 3D points of the
+/// correspondences that agree are joined into one track, the others of
+/// `other` are added as new points (without the observations of keypoints
+/// that already observe a point of `model`), and cameras not in `model` are
+/// added. Returns the step's counts; `model` is changed only if merged.
+ModelMergeStep MergeInto(const Reconstruction& other,
+                         const ModelMergeOptions& options,
+                         Reconstruction* model);
+
+/// Starts from the largest model (most registered images; the first on a
+/// tie) and merges the others into it, repeating over those left while any
+/// merges (a chain of sub-models joins through each other). `models` must
+/// not be empty. Models with rigs or frames are not merged.
+ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
+                             const ModelMergeOptions& options = {});
+
+}  // namespace hisfm
