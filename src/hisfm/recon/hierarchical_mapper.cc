@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <set>
 
 #include "hisfm/io/colmap_version.h"
@@ -251,18 +252,42 @@ ModelFolder ReadModelFolder(const std::string& path) {
   return {path, ReadModelBinary(path).NumRegImages()};
 }
 
+// Reads the numbered sub-model folders under `path` into `models` and
+// returns their paths; a folder colmap left unreadable (e.g. interrupted
+// while writing it) is logged and skipped.
+std::vector<std::string> ReadableModels(const std::string& path,
+                                        std::vector<Reconstruction>* models) {
+  std::vector<std::string> folders;
+  for (const std::string& folder : NumberedModelFolders(path)) {
+    try {
+      models->push_back(ReadModelBinary(folder));
+      folders.push_back(folder);
+    } catch (const Error& e) {
+      HISFM_LOG_WARN("skipping sub-model {}: {}", folder, e.what());
+    }
+  }
+  return folders;
+}
+
+// Describes a merge step's shared evidence for the log.
+std::string SharedEvidence(const ModelMergeStep& step) {
+  if (step.rigs_refused) return "rigs of several sensors are not merged";
+  return StrCat(step.num_common_images, " shared image(s), ", step.num_inliers,
+                " of ", step.num_correspondences, " shared points agree");
+}
+
 // The model of the numbered sub-model folders under `path` (empty if none):
 // the largest, with the others that share registered images merged into it
 // when `options.merge_sub_models` (model_merge.h; the merged model is
 // written to `path`/merged). Sub-models left out are logged with their sizes.
 ModelFolder MergedModel(const std::string& path,
                         const HierarchicalMapperOptions& options) {
-  const std::vector<std::string> folders = NumberedModelFolders(path);
-  if (folders.empty()) return {};
+  std::vector<std::string> folders;
   std::vector<Reconstruction> models;
-  for (const std::string& folder : folders) {
-    models.push_back(ReadModelBinary(folder));
+  for (const std::string& folder : ReadableModels(path, &models)) {
+    folders.push_back(folder);
   }
+  if (folders.empty()) return {};
   ModelMergeResult merged;
   if (options.merge_sub_models) {
     merged = MergeModels(models, options.merge);
@@ -283,17 +308,14 @@ ModelFolder MergedModel(const std::string& path,
   const std::string& base = folders[merged.base];
   for (const ModelMergeStep& step : merged.steps) {
     if (step.merged) {
-      HISFM_LOG_INFO(
-          "merged sub-model {} ({} registered images) into {}: {} shared "
-          "image(s), {} of {} shared points agree",
-          folders[step.model], step.num_images, base, step.num_common_images,
-          step.num_inliers, step.num_correspondences);
+      HISFM_LOG_INFO("merged sub-model {} ({} registered images) into {}: {}",
+                     folders[step.model], step.num_images, base,
+                     SharedEvidence(step));
     } else {
       HISFM_LOG_WARN(
-          "dropping sub-model {} ({} registered images; {} shared image(s), "
-          "{} of {} shared points agree); keeping {} ({} images)",
-          folders[step.model], step.num_images, step.num_common_images,
-          step.num_inliers, step.num_correspondences, base,
+          "dropping sub-model {} ({} registered images; {}); keeping {} ({} "
+          "images)",
+          folders[step.model], step.num_images, SharedEvidence(step), base,
           models[merged.base].NumRegImages());
     }
   }
@@ -632,6 +654,102 @@ std::string CheckMapperPaths(const MapperPaths& paths,
   return work;
 }
 
+// One round of ReseedUnregistered (numbered `round`): the model it grew to,
+// or nothing if it registered no more images than `current`.
+std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
+                                       const HierarchyComponent& comp,
+                                       const LoadedInput& in,
+                                       const HierarchicalMapperOptions& options,
+                                       const ModelFolder& current, int round,
+                                       StageTimes* times) {
+  const Reconstruction base = ReadModelBinary(current.path);
+  std::set<ImageId> missing;
+  for (const ImageId id : comp.images) {
+    if (!base.images.count(id)) missing.insert(id);
+  }
+  if (missing.empty()) return std::nullopt;
+  // The hierarchy's edges, and the reserve edges of unregistered images (as
+  // RescueUnregistered adds them).
+  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
+  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
+  for (const ViewGraphEdge& e : in.reserve_edges) {
+    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
+    if (members.count(a) && members.count(b) &&
+        (missing.count(a) || missing.count(b))) {
+      edges.insert(e.pair);
+    }
+  }
+  std::set<ImageId> seeded = missing;
+  for (const ImagePair& e : edges) {
+    if (missing.count(e.image_id1) != missing.count(e.image_id2)) {
+      seeded.insert(e.image_id1);
+      seeded.insert(e.image_id2);
+    }
+  }
+  const std::string stage = "reseed" + std::to_string(round);
+  LogHeading(StrCat("Reseed: new models on ", missing.size(),
+                    " unregistered image(s) and ",
+                    seeded.size() - missing.size(),
+                    " registered neighbour(s)"));
+  Timer timer;
+  const std::string database = run.dir + "/" + stage + ".db";
+  const std::string image_list = run.dir + "/" + stage + "_images.txt";
+  WriteFilteredDatabase(run.database_path, database,
+                        {edges.begin(), edges.end()},
+                        ComponentDatabaseOptions(in));
+  WriteImageList({seeded.begin(), seeded.end()}, in.names, image_list);
+  times->filter_databases += timer.ElapsedSeconds();
+  const std::string models_dir = run.dir + "/" + stage + "_models";
+  std::error_code ec;
+  fs::create_directories(models_dir, ec);
+  std::vector<std::string> args = {
+      "mapper",       "--database_path", database,
+      "--image_path", run.image_path,    "--output_path",
+      models_dir,     "--image_list_path", image_list};
+  args.insert(args.end(), options.mapper_args.begin(),
+              options.mapper_args.end());
+  AddBundleAdjustmentFlags(options, &args);
+  AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
+                 std::to_string(options.min_model_size), &args);
+  Timer seed_timer;
+  try {
+    RunColmapWithProgress(options.colmap, args, run.Log(),
+                          "Reseed: registering images", seeded.size(),
+                          ParseMapperProgress);
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    // colmap ends with an error when it cannot start a further model; the
+    // models it wrote before are still used.
+    HISFM_LOG_WARN("reseed: {}", e.what());
+  }
+  times->attach += seed_timer.ElapsedSeconds();
+  std::vector<Reconstruction> models = {base};
+  const size_t num_new = ReadableModels(models_dir, &models).size();
+  // The component's model is the base: its frame and cameras are kept.
+  const ModelMergeResult merged = MergeModels(models, options.merge, 0);
+  HISFM_LOG_INFO("reseed: {} new model(s), {} merged; {} -> {} images",
+                 num_new, merged.NumMerged(), base.NumRegImages(),
+                 merged.model.NumRegImages());
+  if (merged.model.NumRegImages() <= base.NumRegImages()) return std::nullopt;
+  const std::string merged_dir = run.dir + "/" + stage + "_merged";
+  AtomicDirectory dir(merged_dir);
+  WriteModelBinary(merged.model, dir.path());
+  dir.Commit();
+  const ModelFolder joined = {merged_dir, merged.model.NumRegImages(),
+                              merged.NumMerged()};
+  ModelFolder attached;
+  try {
+    attached = AttachLeaves(run, comp, options, joined, times, stage,
+                            edges.size());
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("reseed: {}; keeping the merged model", e.what());
+  }
+  return attached.num_registered >= joined.num_registered ? attached : joined;
+}
+
 // Re-seeds the images of the component that are still unregistered:
 // colmap mapper starts new models on them and their registered neighbours
 // (on the hierarchy's and the reserve edges only), those that share
@@ -647,97 +765,21 @@ ModelFolder ReseedUnregistered(const ComponentRun& run,
                                const LoadedInput& in,
                                const HierarchicalMapperOptions& options,
                                const ModelFolder& model, StageTimes* times) {
-  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
-  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
-  for (const ViewGraphEdge& e : in.reserve_edges) {
-    if (members.count(e.pair.image_id1) && members.count(e.pair.image_id2)) {
-      edges.insert(e.pair);
-    }
-  }
+  if (!options.merge_sub_models) return model;
   ModelFolder current = model;
   for (int round = 0; round < options.reseed_rounds; ++round) {
-    const Reconstruction base = ReadModelBinary(current.path);
-    std::set<ImageId> missing;
-    for (const ImageId id : comp.images) {
-      if (!base.images.count(id)) missing.insert(id);
-    }
-    if (missing.empty()) break;
-    std::set<ImageId> seeded = missing;
-    for (const ImagePair& e : edges) {
-      if (missing.count(e.image_id1) != missing.count(e.image_id2)) {
-        seeded.insert(e.image_id1);
-        seeded.insert(e.image_id2);
-      }
-    }
-    const std::string stage = "reseed" + std::to_string(round);
-    LogHeading(StrCat("Reseed: new models on ", missing.size(),
-                      " unregistered image(s) and ",
-                      seeded.size() - missing.size(),
-                      " registered neighbour(s)"));
-    Timer timer;
-    const std::string database = run.dir + "/" + stage + ".db";
-    WriteFilteredDatabase(run.database_path, database,
-                          {edges.begin(), edges.end()},
-                          ComponentDatabaseOptions(in));
-    WriteImageList({seeded.begin(), seeded.end()}, in.names,
-                   run.dir + "/" + stage + "_images.txt");
-    times->filter_databases += timer.ElapsedSeconds();
-    const std::string models_dir = run.dir + "/" + stage + "_models";
-    std::error_code ec;
-    fs::create_directories(models_dir, ec);
-    std::vector<std::string> args = {
-        "mapper", "--database_path", database, "--image_path", run.image_path,
-        "--output_path", models_dir, "--image_list_path",
-        run.dir + "/" + stage + "_images.txt"};
-    args.insert(args.end(), options.mapper_args.begin(),
-                options.mapper_args.end());
-    AddBundleAdjustmentFlags(options, &args);
-    AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
-                   std::to_string(options.min_model_size), &args);
-    Timer seed_timer;
     try {
-      RunColmapWithProgress(options.colmap, args, run.Log(),
-                            "Reseed: registering images", seeded.size(),
-                            ParseMapperProgress);
+      const std::optional<ModelFolder> grown =
+          ReseedRound(run, comp, in, options, current, round, times);
+      if (!grown) break;
+      current = *grown;
     } catch (const Interrupted&) {
       throw;
     } catch (const Error& e) {
-      // colmap ends with an error when it cannot start a further model;
-      // the models it wrote before are still used.
-      HISFM_LOG_WARN("reseed: {}", e.what());
+      HISFM_LOG_WARN("reseed: {}; keeping the model of {} images", e.what(),
+                     current.num_registered);
+      break;
     }
-    times->attach += seed_timer.ElapsedSeconds();
-    std::vector<Reconstruction> models = {base};
-    for (const std::string& folder : NumberedModelFolders(models_dir)) {
-      models.push_back(ReadModelBinary(folder));
-    }
-    const ModelMergeResult merged = MergeModels(models, options.merge);
-    // The component's model must be in the result (the base, or merged).
-    bool kept = merged.base == 0;
-    for (const ModelMergeStep& step : merged.steps) {
-      if (step.model == 0 && step.merged) kept = true;
-    }
-    HISFM_LOG_INFO("reseed: {} new model(s), {} merged; {} -> {} images",
-                   models.size() - 1, merged.NumMerged(),
-                   base.NumRegImages(),
-                   kept ? merged.model.NumRegImages() : base.NumRegImages());
-    if (!kept || merged.model.NumRegImages() <= base.NumRegImages()) break;
-    AtomicDirectory dir(run.dir + "/" + stage + "_merged");
-    WriteModelBinary(merged.model, dir.path());
-    dir.Commit();
-    const ModelFolder joined = {run.dir + "/" + stage + "_merged",
-                                merged.model.NumRegImages()};
-    ModelFolder attached;
-    try {
-      attached = AttachLeaves(run, comp, options, joined, times, stage,
-                              edges.size());
-    } catch (const Interrupted&) {
-      throw;
-    } catch (const Error& e) {
-      HISFM_LOG_WARN("reseed: {}; keeping the merged model", e.what());
-    }
-    current = attached.num_registered >= joined.num_registered ? attached
-                                                               : joined;
   }
   return current;
 }

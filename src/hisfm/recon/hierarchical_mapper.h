@@ -75,7 +75,8 @@ struct HierarchicalMapperOptions {
   int min_model_size = 3;
   /// When colmap splits a scaffold (or a model started from scratch) into
   /// sub-models, merge those that share registered images into the largest
-  /// (model_merge.h) instead of dropping them.
+  /// (model_merge.h) instead of dropping them. False also turns off
+  /// re-seeding (reseed_rounds), whose models are merged the same way.
   bool merge_sub_models = true;
   /// How sub-models are merged.
   ModelMergeOptions merge;

@@ -1,6 +1,7 @@
 #include "hisfm/recon/model_merge.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <unordered_map>
 
@@ -14,7 +15,9 @@ void ModelMergeOptions::Check() const {
   HISFM_CHECK_OPTION(min_inlier_ratio,
                      min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0,
                      "in [0, 1]");
-  HISFM_CHECK_OPTION(max_relative_error, max_relative_error > 0.0, "> 0");
+  HISFM_CHECK_OPTION(max_relative_error,
+                     std::isfinite(max_relative_error) && max_relative_error > 0,
+                     "finite and > 0");
 }
 
 size_t ModelMergeResult::NumMerged() const {
@@ -25,13 +28,20 @@ size_t ModelMergeResult::NumMerged() const {
 
 namespace {
 
-// A keypoint of a shared image that observes a point in both models.
+// A keypoint of a shared image that observes a point in both models, with
+// the two points and their depths in that image.
 struct Correspondence {
   ImageId image = kInvalidImageId;
   Point3DId model_point = kInvalidPoint3DId;
   Point3DId other_point = kInvalidPoint3DId;
+  Eigen::Vector3d model_xyz;
+  Eigen::Vector3d other_xyz;
+  double model_depth = 0;
+  double other_depth = 0;
 };
 
+// The shared points of the images registered in both models (with as many
+// keypoints in both; other images are not shared).
 std::vector<Correspondence> SharedObservations(const Reconstruction& other,
                                                const Reconstruction& model,
                                                size_t* num_common_images) {
@@ -40,22 +50,79 @@ std::vector<Correspondence> SharedObservations(const Reconstruction& other,
   for (const auto& [id, image] : other.images) {
     const auto it = model.images.find(id);
     if (it == model.images.end()) continue;
-    ++*num_common_images;
     const std::vector<Point2D>& mine = it->second.points2D;
-    const size_t n = std::min(mine.size(), image.points2D.size());
-    for (size_t k = 0; k < n; ++k) {
-      const Point3DId a = mine[k].point3D_id;
-      const Point3DId b = image.points2D[k].point3D_id;
-      if (a == kInvalidPoint3DId || b == kInvalidPoint3DId) continue;
-      if (!model.points3D.count(a) || !other.points3D.count(b)) continue;
-      out.push_back({id, a, b});
+    if (mine.size() != image.points2D.size()) continue;
+    ++*num_common_images;
+    for (size_t k = 0; k < mine.size(); ++k) {
+      const auto a = model.points3D.find(mine[k].point3D_id);
+      const auto b = other.points3D.find(image.points2D[k].point3D_id);
+      if (a == model.points3D.end() || b == other.points3D.end()) continue;
+      Correspondence c;
+      c.image = id;
+      c.model_point = a->first;
+      c.other_point = b->first;
+      c.model_xyz = a->second.xyz;
+      c.other_xyz = b->second.xyz;
+      c.model_depth = (it->second.cam_from_world * c.model_xyz).z();
+      c.other_depth = (image.cam_from_world * c.other_xyz).z();
+      out.push_back(c);
     }
   }
   return out;
 }
 
-// Adds `other` (its points already mapped by model_from_other) to `model`:
-// `joined` maps other's points to the model's points they were found to be.
+// True if every rig has one sensor (COLMAP 3.12 writes one such rig per
+// camera for images without a rig): a frame is then one image, and its
+// rig_from_world is the image's cam_from_world.
+bool HasOnlySingleSensorRigs(const Reconstruction& model) {
+  if (!model.rigs) return true;
+  for (const Rig& rig : *model.rigs) {
+    if (!rig.sensors.empty()) return false;
+  }
+  return true;
+}
+
+// True if the two models can be merged as far as rigs go: neither has rigs
+// and frames, or both have, of single sensors only.
+bool RigsMergeable(const Reconstruction& a, const Reconstruction& b) {
+  const bool rigs_a = a.rigs || a.frames;
+  const bool rigs_b = b.rigs || b.frames;
+  if (rigs_a != rigs_b) return false;
+  return HasOnlySingleSensorRigs(a) && HasOnlySingleSensorRigs(b);
+}
+
+// Adds the rigs and frames of `other` that `model` lacks, for the images
+// `added` (moved by model_from_other).
+void AddRigsAndFrames(const Reconstruction& other, const Sim3d& model_from_other,
+                      const std::vector<ImageId>& added,
+                      Reconstruction* model) {
+  if (!other.rigs || !other.frames || !model->rigs || !model->frames) return;
+  for (const Rig& rig : *other.rigs) {
+    const bool known = std::any_of(
+        model->rigs->begin(), model->rigs->end(),
+        [&](const Rig& r) { return r.rig_id == rig.rig_id; });
+    if (!known) model->rigs->push_back(rig);
+  }
+  for (const Frame& frame : *other.frames) {
+    const bool wanted = std::any_of(
+        frame.data.begin(), frame.data.end(), [&](const FrameData& d) {
+          return d.sensor.type == SensorType::kCamera &&
+                 std::find(added.begin(), added.end(), d.data_id) != added.end();
+        });
+    const bool known = std::any_of(
+        model->frames->begin(), model->frames->end(),
+        [&](const Frame& f) { return f.frame_id == frame.frame_id; });
+    if (!wanted || known) continue;
+    Frame moved = frame;
+    if (moved.rig_from_world) {
+      moved.rig_from_world = model_from_other.TransformPose(*moved.rig_from_world);
+    }
+    model->frames->push_back(moved);
+  }
+}
+
+// Adds `other` (mapped by model_from_other) to `model`: `joined` maps
+// other's points to the model's points they were found to be.
 void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
               const std::unordered_map<Point3DId, Point3DId>& joined,
               Reconstruction* model) {
@@ -64,8 +131,10 @@ void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
   }
   Point3DId next_id = 1;
   if (!model->points3D.empty()) next_id = model->points3D.rbegin()->first + 1;
-  // Where each of other's points goes.
+  // Where each of other's points goes; the new ones, to drop if they end
+  // with fewer than two observations.
   std::unordered_map<Point3DId, Point3DId> target = joined;
+  std::vector<Point3DId> created;
   for (const auto& [id, point] : other.points3D) {
     if (target.count(id)) continue;
     Point3D moved;
@@ -73,41 +142,45 @@ void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
     moved.color = point.color;
     moved.error = point.error;
     model->points3D.emplace(next_id, moved);
+    created.push_back(next_id);
     target.emplace(id, next_id++);
   }
   // Images only in `other` are moved; their observations follow.
+  std::vector<ImageId> added;
   for (const auto& [id, image] : other.images) {
     if (model->images.count(id)) continue;
     Image moved = image;
     moved.cam_from_world = model_from_other.TransformPose(image.cam_from_world);
     for (Point2D& p : moved.points2D) p.point3D_id = kInvalidPoint3DId;
     model->images.emplace(id, std::move(moved));
+    added.push_back(id);
   }
+  AddRigsAndFrames(other, model_from_other, added, model);
   // Observations: each keypoint that observes a point in `other` observes
   // the point it maps to, unless it already observes one in `model`.
   for (const auto& [id, point] : other.points3D) {
     const Point3DId to = target.at(id);
     Point3D& dst = model->points3D.at(to);
     for (const TrackElement& el : point.track) {
-      Image& image = model->images.at(el.image_id);
-      if (el.point2D_idx >= image.points2D.size()) continue;
-      Point2D& p2 = image.points2D[el.point2D_idx];
+      const auto image = model->images.find(el.image_id);
+      if (image == model->images.end() ||
+          el.point2D_idx >= image->second.points2D.size()) {
+        continue;
+      }
+      Point2D& p2 = image->second.points2D[el.point2D_idx];
       if (p2.point3D_id != kInvalidPoint3DId) continue;
       p2.point3D_id = to;
       dst.track.push_back(el);
     }
   }
-  // New points left with fewer than two observations are dropped.
-  for (auto it = model->points3D.begin(); it != model->points3D.end();) {
-    if (it->second.track.size() >= 2) {
-      ++it;
-      continue;
-    }
+  for (const Point3DId id : created) {
+    const auto it = model->points3D.find(id);
+    if (it->second.track.size() >= 2) continue;
     for (const TrackElement& el : it->second.track) {
       model->images.at(el.image_id).points2D[el.point2D_idx].point3D_id =
           kInvalidPoint3DId;
     }
-    it = model->points3D.erase(it);
+    model->points3D.erase(it);
   }
 }
 
@@ -118,6 +191,10 @@ ModelMergeStep MergeInto(const Reconstruction& other,
                          Reconstruction* model) {
   ModelMergeStep step;
   step.num_images = other.NumRegImages();
+  if (!RigsMergeable(other, *model)) {
+    step.rigs_refused = true;
+    return step;
+  }
   const std::vector<Correspondence> corr =
       SharedObservations(other, *model, &step.num_common_images);
   step.num_correspondences = corr.size();
@@ -126,13 +203,8 @@ ModelMergeStep MergeInto(const Reconstruction& other,
   // ratio of its shared points.
   std::map<ImageId, std::vector<double>> ratios;
   for (const Correspondence& c : corr) {
-    const double depth_model =
-        (model->images.at(c.image).cam_from_world *
-         model->points3D.at(c.model_point).xyz).z();
-    const double depth_other = (other.images.at(c.image).cam_from_world *
-                                other.points3D.at(c.other_point).xyz).z();
-    if (depth_model > 0 && depth_other > 0) {
-      ratios[c.image].push_back(depth_model / depth_other);
+    if (c.model_depth > 0 && c.other_depth > 0) {
+      ratios[c.image].push_back(c.model_depth / c.other_depth);
     }
   }
   std::vector<bool> best_inliers;
@@ -153,13 +225,10 @@ ModelMergeStep MergeInto(const Reconstruction& other,
     std::vector<bool> inliers(corr.size(), false);
     size_t count = 0;
     for (size_t k = 0; k < corr.size(); ++k) {
-      const Eigen::Vector3d& x = model->points3D.at(corr[k].model_point).xyz;
-      const double depth =
-          (model->images.at(corr[k].image).cam_from_world * x).z();
-      const Eigen::Vector3d mapped =
-          model_from_other * other.points3D.at(corr[k].other_point).xyz;
-      if (depth > 0 &&
-          (mapped - x).norm() <= options.max_relative_error * depth) {
+      const Correspondence& c = corr[k];
+      if (c.model_depth > 0 &&
+          (model_from_other * c.other_xyz - c.model_xyz).norm() <=
+              options.max_relative_error * c.model_depth) {
         inliers[k] = true;
         ++count;
       }
@@ -187,21 +256,21 @@ ModelMergeStep MergeInto(const Reconstruction& other,
 }
 
 ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
-                             const ModelMergeOptions& options) {
+                             const ModelMergeOptions& options,
+                             std::optional<size_t> base) {
   ThrowUnless(!models.empty(), "MergeModels: no model");
   ModelMergeResult result;
-  for (size_t i = 1; i < models.size(); ++i) {
-    if (models[i].NumRegImages() > models[result.base].NumRegImages()) {
-      result.base = i;
+  if (base) {
+    ThrowUnless(*base < models.size(), "MergeModels: no such base model");
+    result.base = *base;
+  } else {
+    for (size_t i = 1; i < models.size(); ++i) {
+      if (models[i].NumRegImages() > models[result.base].NumRegImages()) {
+        result.base = i;
+      }
     }
   }
   result.model = models[result.base];
-  const bool has_rigs = [&] {
-    for (const Reconstruction& m : models) {
-      if (m.rigs || m.frames) return true;
-    }
-    return false;
-  }();
   std::vector<size_t> left;
   for (size_t i = 0; i < models.size(); ++i) {
     if (i != result.base) left.push_back(i);
@@ -211,11 +280,7 @@ ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
   });
   // The last attempt on each sub-model not merged.
   std::map<size_t, ModelMergeStep> failed;
-  for (size_t i : left) {
-    failed[i].model = i;
-    failed[i].num_images = models[i].NumRegImages();
-  }
-  bool progress = !has_rigs;
+  bool progress = true;
   while (progress && !left.empty()) {
     progress = false;
     std::vector<size_t> still;

@@ -20,6 +20,7 @@
 // them.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include "hisfm/io/model.h"
@@ -31,7 +32,7 @@ struct ModelMergeOptions {
   /// keypoint of a shared image observing a 3D point in both models) agree
   /// with the similarity. The shared image's two poses already fix all but
   /// the scale; on the synthetic families a single shared image gave 12 to
-  /// 18 such points, with depth ratios within 2% of their median.
+  /// 26 such points, with depth ratios within 2% of their median.
   int min_inliers = 8;
   /// ... and at least this share of all shared points.
   double min_inlier_ratio = 0.5;
@@ -48,43 +49,58 @@ struct ModelMergeOptions {
 struct ModelMergeStep {
   /// Index of the sub-model in the input list.
   size_t model = 0;
+  /// Registered images of the sub-model.
   size_t num_images = 0;
-  /// Registered images it shares with the merged model.
+  /// Registered images it shares with the merged model (with the same
+  /// number of keypoints in both).
   size_t num_common_images = 0;
+  /// Shared points: keypoints of shared images that observe a 3D point in
+  /// both models.
   size_t num_correspondences = 0;
+  /// Shared points that agree with the best similarity.
   size_t num_inliers = 0;
+  /// True if a model has a rig of several sensors, or only one of the two
+  /// has rigs and frames: such models are not merged.
+  bool rigs_refused = false;
   /// True if it was merged.
   bool merged = false;
 };
 
 /// The result of merging a list of sub-models.
 struct ModelMergeResult {
-  /// The largest sub-model with every sub-model merged into it that could
-  /// be; in the largest one's frame.
+  /// The base sub-model with every sub-model merged into it that could be;
+  /// in the base's frame.
   Reconstruction model;
-  /// Index of the largest sub-model (the frame of `model`).
+  /// Index of the base sub-model (the frame of `model`).
   size_t base = 0;
-  /// One step per other sub-model, in the order they were tried.
+  /// One step per other sub-model: those merged, in the order they were
+  /// merged, then those left out.
   std::vector<ModelMergeStep> steps;
   /// Number of sub-models merged into the base.
   size_t NumMerged() const;
 };
 
 /// Maps `other` into `model`'s frame through their shared images and adds
-/// it: images only in `other` get their poses moved, the 3D points of the
-/// correspondences that agree are joined into one track, the others of
-/// `other` are added as new points (without the observations of keypoints
-/// that already observe a point of `model`), and cameras not in `model` are
-/// added. Returns the step's counts; `model` is changed only if merged.
+/// it: images only in `other` get their poses (and, with COLMAP 3.12's
+/// single-camera rigs, their frames) moved, the 3D points of the shared
+/// points that agree are joined into one track, the others of `other` are
+/// added as new points (without the observations of keypoints that already
+/// observe a point of `model`; points left with fewer than two observations
+/// are dropped), and cameras and rigs not in `model` are added (a camera in
+/// both keeps `model`'s intrinsics). Returns the step's counts; `model` is
+/// changed only if merged. Both models must come from one database (image,
+/// camera and keypoint ids mean the same) and hold finite values, as
+/// ReadModel guarantees.
 ModelMergeStep MergeInto(const Reconstruction& other,
                          const ModelMergeOptions& options,
                          Reconstruction* model);
 
-/// Starts from the largest model (most registered images; the first on a
-/// tie) and merges the others into it, repeating over those left while any
-/// merges (a chain of sub-models joins through each other). `models` must
-/// not be empty. Models with rigs or frames are not merged.
+/// Starts from the base model (`base`, or else the one with most registered
+/// images, the first on a tie) and merges the others into it, repeating
+/// over those left while any merges (a chain of sub-models joins through
+/// each other). `models` must not be empty.
 ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
-                             const ModelMergeOptions& options = {});
+                             const ModelMergeOptions& options = {},
+                             std::optional<size_t> base = std::nullopt);
 
 }  // namespace hisfm

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
 #include <random>
 
 #include "hisfm/eval/similarity_alignment.h"
@@ -30,8 +32,9 @@ Rigid3d CameraPose(int i) {
 }
 
 // The model of images first..last (ids), in the frame `frame_from_world`:
-// keypoint k of every image observes point k (point ids 1 + k).
-Reconstruction RowModel(int first, int last, const Sim3d& frame_from_world) {
+// keypoint k of every image observes point k (point ids 1 + k + id_offset).
+Reconstruction RowModel(int first, int last, const Sim3d& frame_from_world,
+                        Point3DId id_offset = 0) {
   const std::vector<Eigen::Vector3d> scene = ScenePoints();
   Reconstruction model;
   Camera camera;
@@ -44,7 +47,7 @@ Reconstruction RowModel(int first, int last, const Sim3d& frame_from_world) {
   for (int k = 0; k < kNumPoints; ++k) {
     Point3D p;
     p.xyz = frame_from_world * scene[k];
-    model.points3D.emplace(1 + k, p);
+    model.points3D.emplace(1 + k + id_offset, p);
   }
   for (int i = first; i <= last; ++i) {
     Image image;
@@ -54,8 +57,8 @@ Reconstruction RowModel(int first, int last, const Sim3d& frame_from_world) {
     image.cam_from_world = frame_from_world.TransformPose(CameraPose(i));
     image.points2D.resize(kNumPoints);
     for (int k = 0; k < kNumPoints; ++k) {
-      image.points2D[k].point3D_id = 1 + k;
-      model.points3D.at(1 + k).track.push_back(
+      image.points2D[k].point3D_id = 1 + k + id_offset;
+      model.points3D.at(1 + k + id_offset).track.push_back(
           {static_cast<ImageId>(i), static_cast<Point2DIdx>(k)});
     }
     model.images.emplace(i, image);
@@ -124,15 +127,14 @@ TEST(ModelMerge, JoinsTwoModelsThroughOneSharedImage) {
 TEST(ModelMerge, RefusesModelsWhoseSharedPointsDisagree) {
   Reconstruction model = RowModel(1, 5, Sim3d());
   Reconstruction other = RowModel(5, 9, SomeFrame());
-  // The shared image's keypoints observe other points in `other`: no
-  // similarity maps one model onto the other.
+  // `other`'s points sit at each other's places: no similarity maps them
+  // onto the model's.
+  std::vector<Eigen::Vector3d> xyz;
+  for (const auto& [id, p] : other.points3D) xyz.push_back(p.xyz);
   std::mt19937 rng(3);
-  std::vector<Point3DId> ids;
-  for (const Point2D& p : other.images.at(5).points2D) ids.push_back(p.point3D_id);
-  std::shuffle(ids.begin(), ids.end(), rng);
-  for (size_t k = 0; k < ids.size(); ++k) {
-    other.images.at(5).points2D[k].point3D_id = ids[k];
-  }
+  std::shuffle(xyz.begin(), xyz.end(), rng);
+  size_t k = 0;
+  for (auto& [id, p] : other.points3D) p.xyz = xyz[k++];
   const Reconstruction before = model;
   const ModelMergeStep step = MergeInto(other, {}, &model);
   EXPECT_FALSE(step.merged);
@@ -140,6 +142,134 @@ TEST(ModelMerge, RefusesModelsWhoseSharedPointsDisagree) {
   EXPECT_LT(step.num_inliers, static_cast<size_t>(kNumPoints / 2));
   EXPECT_EQ(model.NumRegImages(), before.NumRegImages());
   EXPECT_EQ(model.NumPoints3D(), before.NumPoints3D());
+}
+
+TEST(ModelMerge, KeepsTrackBookkeepingOfNewAndPartialPoints) {
+  // Two more keypoints e1, e2 in the images of both models. `other` numbers
+  // its points from 1001, uses a second camera for its new images, and has
+  // two points the model lacks: `free_point` on e1 of the shared image 5
+  // and of image 6 (added as a new point), and `lonely` on e2 of images 5
+  // and 7, where the model's image 5 observes another point (`own`, at
+  // another place): that keypoint stays with `own`, and `lonely`, left with
+  // one observation, is dropped.
+  const Point2DIdx e1 = kNumPoints, e2 = kNumPoints + 1;
+  Reconstruction model = RowModel(1, 5, Sim3d());
+  for (ImageId id = 1; id <= 5; ++id) model.images.at(id).points2D.resize(e2 + 1);
+  Point3D own;
+  own.xyz = Eigen::Vector3d(-1, 1, 6);
+  own.track = {{4, e2}, {5, e2}};
+  model.points3D.emplace(9000, own);
+  model.images.at(4).points2D[e2].point3D_id = 9000;
+  model.images.at(5).points2D[e2].point3D_id = 9000;
+  Reconstruction other = RowModel(5, 9, SomeFrame(), 1000);
+  for (ImageId id = 5; id <= 9; ++id) other.images.at(id).points2D.resize(e2 + 1);
+  Camera second = other.cameras.at(1);
+  second.camera_id = 2;
+  second.params = {600, 320, 240};
+  other.cameras.emplace(2, second);
+  for (ImageId id = 6; id <= 9; ++id) other.images.at(id).camera_id = 2;
+  Point3D free_point;
+  free_point.xyz = SomeFrame() * Eigen::Vector3d(3, 1, 8);
+  free_point.track = {{5, e1}, {6, e1}};
+  other.points3D.emplace(5000, free_point);
+  other.images.at(5).points2D[e1].point3D_id = 5000;
+  other.images.at(6).points2D[e1].point3D_id = 5000;
+  Point3D lonely;
+  lonely.xyz = SomeFrame() * Eigen::Vector3d(4, 0, 9);
+  lonely.track = {{5, e2}, {7, e2}};
+  other.points3D.emplace(5001, lonely);
+  other.images.at(5).points2D[e2].point3D_id = 5001;
+  other.images.at(7).points2D[e2].point3D_id = 5001;
+
+  const ModelMergeStep step = MergeInto(other, {}, &model);
+  ASSERT_TRUE(step.merged);
+  // 60 joined shared points and the disagreeing own/lonely one.
+  EXPECT_EQ(step.num_correspondences, static_cast<size_t>(kNumPoints) + 1);
+  EXPECT_EQ(step.num_inliers, static_cast<size_t>(kNumPoints));
+  EXPECT_EQ(model.NumRegImages(), 9u);
+  EXPECT_EQ(model.cameras.size(), 2u);
+  EXPECT_EQ(model.cameras.at(2).params[0], 600);
+  EXPECT_EQ(model.images.at(7).camera_id, 2u);
+  ExpectRowPoses(model);
+  // The 60 joined points, `own` and `free_point`.
+  EXPECT_EQ(model.NumPoints3D(), static_cast<size_t>(kNumPoints) + 2);
+  EXPECT_EQ(model.points3D.at(9000).track.size(), 2u);
+  EXPECT_EQ(model.images.at(5).points2D[e2].point3D_id, 9000u);
+  EXPECT_EQ(model.images.at(7).points2D[e2].point3D_id, kInvalidPoint3DId);
+  const Point3DId free_id = model.images.at(5).points2D[e1].point3D_id;
+  ASSERT_NE(free_id, kInvalidPoint3DId);
+  EXPECT_EQ(model.images.at(6).points2D[e1].point3D_id, free_id);
+  EXPECT_LT((model.points3D.at(free_id).xyz - Eigen::Vector3d(3, 1, 8)).norm(),
+            1e-9);
+  ExpectConsistentTracks(model);
+}
+
+TEST(ModelMerge, ImagesWithOtherKeypointsAreNotShared) {
+  Reconstruction model = RowModel(1, 5, Sim3d());
+  model.images.at(5).points2D.resize(kNumPoints - 1);
+  for (auto& [id, point] : model.points3D) {
+    point.track.erase(std::remove_if(point.track.begin(), point.track.end(),
+                                     [](const TrackElement& el) {
+                                       return el.image_id == 5 &&
+                                              el.point2D_idx >= kNumPoints - 1;
+                                     }),
+                      point.track.end());
+  }
+  const ModelMergeStep step = MergeInto(RowModel(5, 9, SomeFrame()), {}, &model);
+  EXPECT_FALSE(step.merged);
+  EXPECT_EQ(step.num_common_images, 0u);
+  EXPECT_EQ(step.num_correspondences, 0u);
+}
+
+// Gives the model COLMAP 3.12's rigs: one single-camera rig, one frame per
+// image, the frame's pose the image's.
+void AddSingleCameraRigs(Reconstruction* model) {
+  Rig rig;
+  rig.rig_id = 1;
+  rig.ref_sensor = SensorId{SensorType::kCamera, 1};
+  model->rigs = std::vector<Rig>{rig};
+  model->frames = std::vector<Frame>();
+  for (const auto& [id, image] : model->images) {
+    Frame frame;
+    frame.frame_id = id;
+    frame.rig_id = 1;
+    frame.rig_from_world = image.cam_from_world;
+    frame.data.push_back({SensorId{SensorType::kCamera, 1}, id});
+    model->frames->push_back(frame);
+  }
+}
+
+TEST(ModelMerge, MergesSingleCameraRigsAndRefusesOthers) {
+  Reconstruction model = RowModel(1, 5, Sim3d());
+  Reconstruction other = RowModel(5, 9, SomeFrame());
+  AddSingleCameraRigs(&model);
+  AddSingleCameraRigs(&other);
+  Reconstruction merged = model;
+  ASSERT_TRUE(MergeInto(other, {}, &merged).merged);
+  ASSERT_TRUE(merged.frames.has_value());
+  ASSERT_EQ(merged.frames->size(), 9u);
+  EXPECT_EQ(merged.rigs->size(), 1u);
+  for (const Frame& frame : *merged.frames) {
+    const Rigid3d truth = CameraPose(static_cast<int>(frame.frame_id));
+    ASSERT_TRUE(frame.rig_from_world.has_value());
+    EXPECT_LT((frame.rig_from_world->Inverse().translation -
+               truth.Inverse().translation)
+                  .norm(),
+              1e-6)
+        << "frame " << frame.frame_id;
+  }
+  // A rig with a second sensor is not merged, nor a model with rigs into
+  // one without.
+  Reconstruction rigged = other;
+  (*rigged.rigs)[0].sensors.push_back({SensorId{SensorType::kCamera, 2}, {}});
+  Reconstruction target = model;
+  ModelMergeStep step = MergeInto(rigged, {}, &target);
+  EXPECT_FALSE(step.merged);
+  EXPECT_TRUE(step.rigs_refused);
+  Reconstruction plain = RowModel(1, 5, Sim3d());
+  step = MergeInto(other, {}, &plain);
+  EXPECT_FALSE(step.merged);
+  EXPECT_TRUE(step.rigs_refused);
 }
 
 TEST(ModelMerge, RefusesASharedImageWhosePosesDisagreeWithItsPoints) {
@@ -187,6 +317,20 @@ TEST(ModelMerge, MergesAChainWhateverTheOrder) {
   ExpectConsistentTracks(result.model);
 }
 
+TEST(ModelMerge, AGivenBaseKeepsItsFrameAndCameras) {
+  Reconstruction small = RowModel(1, 5, Sim3d());
+  small.cameras.at(1).params[0] = 510;
+  const std::vector<Reconstruction> models = {small,
+                                              RowModel(5, 14, SomeFrame())};
+  const ModelMergeResult result = MergeModels(models, {}, 0);
+  EXPECT_EQ(result.base, 0u);
+  EXPECT_EQ(result.NumMerged(), 1u);
+  EXPECT_EQ(result.model.NumRegImages(), 14u);
+  EXPECT_EQ(result.model.cameras.at(1).params[0], 510);
+  ExpectRowPoses(result.model);
+  EXPECT_THROW(MergeModels(models, {}, 2), Error);
+}
+
 TEST(ModelMerge, KeepsTheLargestWhenNothingJoins) {
   const std::vector<Reconstruction> models = {RowModel(1, 3, Sim3d()),
                                               RowModel(10, 15, SomeFrame())};
@@ -206,6 +350,8 @@ TEST(ModelMergeOptions, CheckRejectsOutOfRangeValues) {
   EXPECT_THROW(options.Check(), Error);
   options = {};
   options.max_relative_error = 0;
+  EXPECT_THROW(options.Check(), Error);
+  options.max_relative_error = std::numeric_limits<double>::infinity();
   EXPECT_THROW(options.Check(), Error);
   options = {};
   options.min_inlier_ratio = 1.5;
