@@ -292,11 +292,7 @@ ModelFolder MergedModel(const std::string& path,
   if (options.merge_sub_models) {
     merged = MergeModels(models, options.merge);
   } else {
-    for (size_t i = 0; i < models.size(); ++i) {
-      if (models[i].NumRegImages() > models[merged.base].NumRegImages()) {
-        merged.base = i;
-      }
-    }
+    merged.base = LargestModelIndex(models);
     for (size_t i = 0; i < models.size(); ++i) {
       if (i == merged.base) continue;
       ModelMergeStep step;
@@ -547,6 +543,33 @@ ModelFolder AttachLeaves(const ComponentRun& run,
   return attached;
 }
 
+// The component's images that `model` does not register.
+std::set<ImageId> UnregisteredImages(const HierarchyComponent& comp,
+                                     const Reconstruction& model) {
+  std::set<ImageId> missing;
+  for (const ImageId id : comp.images) {
+    if (!model.images.count(id)) missing.insert(id);
+  }
+  return missing;
+}
+
+// The component's hierarchy edges and the reserve edges inside it that touch
+// an image of `missing`.
+std::set<ImagePair> EdgesWithReserve(const HierarchyComponent& comp,
+                                     const LoadedInput& in,
+                                     const std::set<ImageId>& missing) {
+  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
+  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
+  for (const ViewGraphEdge& e : in.reserve_edges) {
+    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
+    if (members.count(a) && members.count(b) &&
+        (missing.count(a) || missing.count(b))) {
+      edges.insert(e.pair);
+    }
+  }
+  return edges;
+}
+
 // Registers the images of the component that the hierarchy's edges left
 // unregistered through their reserve edges (verified, but below the support
 // threshold), starting from the attached model; returns the model with more
@@ -559,24 +582,13 @@ ModelFolder RescueUnregistered(const ComponentRun& run,
                                const ModelFolder& attached,
                                StageTimes* times) {
   if (in.reserve_edges.empty()) return attached;
-  const Reconstruction model = ReadModelBinary(attached.path);
-  std::set<ImageId> registered;
-  for (const auto& [id, image] : model.images) registered.insert(id);
-  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
-  std::set<ImageId> missing;
-  for (const ImageId id : comp.images) {
-    if (!registered.count(id)) missing.insert(id);
-  }
+  const std::set<ImageId> missing =
+      UnregisteredImages(comp, ReadModelBinary(attached.path));
   if (missing.empty()) return attached;
-  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
-  size_t num_reserve = 0;
-  for (const ViewGraphEdge& e : in.reserve_edges) {
-    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
-    if (members.count(a) && members.count(b) &&
-        (missing.count(a) || missing.count(b)) && edges.insert(e.pair).second) {
-      ++num_reserve;
-    }
-  }
+  const std::set<ImagePair> edges = EdgesWithReserve(comp, in, missing);
+  const size_t num_reserve =
+      edges.size() -
+      std::set<ImagePair>(comp.edges.begin(), comp.edges.end()).size();
   if (num_reserve == 0) return attached;
   HISFM_LOG_INFO("rescue: {} unregistered image(s), {} reserve edge(s)",
                  missing.size(), num_reserve);
@@ -663,22 +675,9 @@ std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
                                        const ModelFolder& current, int round,
                                        StageTimes* times) {
   const Reconstruction base = ReadModelBinary(current.path);
-  std::set<ImageId> missing;
-  for (const ImageId id : comp.images) {
-    if (!base.images.count(id)) missing.insert(id);
-  }
+  const std::set<ImageId> missing = UnregisteredImages(comp, base);
   if (missing.empty()) return std::nullopt;
-  // The hierarchy's edges, and the reserve edges of unregistered images (as
-  // RescueUnregistered adds them).
-  std::set<ImagePair> edges(comp.edges.begin(), comp.edges.end());
-  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
-  for (const ViewGraphEdge& e : in.reserve_edges) {
-    const ImageId a = e.pair.image_id1, b = e.pair.image_id2;
-    if (members.count(a) && members.count(b) &&
-        (missing.count(a) || missing.count(b))) {
-      edges.insert(e.pair);
-    }
-  }
+  const std::set<ImagePair> edges = EdgesWithReserve(comp, in, missing);
   std::set<ImageId> seeded = missing;
   for (const ImagePair& e : edges) {
     if (missing.count(e.image_id1) != missing.count(e.image_id2)) {

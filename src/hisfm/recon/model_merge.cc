@@ -255,6 +255,14 @@ ModelMergeStep MergeInto(const Reconstruction& other,
   return step;
 }
 
+size_t LargestModelIndex(const std::vector<Reconstruction>& models) {
+  size_t largest = 0;
+  for (size_t i = 1; i < models.size(); ++i) {
+    if (models[i].NumRegImages() > models[largest].NumRegImages()) largest = i;
+  }
+  return largest;
+}
+
 ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
                              const ModelMergeOptions& options,
                              std::optional<size_t> base) {
@@ -264,11 +272,7 @@ ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
     ThrowUnless(*base < models.size(), "MergeModels: no such base model");
     result.base = *base;
   } else {
-    for (size_t i = 1; i < models.size(); ++i) {
-      if (models[i].NumRegImages() > models[result.base].NumRegImages()) {
-        result.base = i;
-      }
-    }
+    result.base = LargestModelIndex(models);
   }
   result.model = models[result.base];
   std::vector<size_t> left;

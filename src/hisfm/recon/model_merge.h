@@ -95,6 +95,10 @@ ModelMergeStep MergeInto(const Reconstruction& other,
                          const ModelMergeOptions& options,
                          Reconstruction* model);
 
+/// The index of the model with most registered images (the first on a
+/// tie; 0 for an empty list).
+size_t LargestModelIndex(const std::vector<Reconstruction>& models);
+
 /// Starts from the base model (`base`, or else the one with most registered
 /// images, the first on a tie) and merges the others into it, repeating
 /// over those left while any merges (a chain of sub-models joins through
