@@ -121,6 +121,23 @@ int CountSupport(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return count;
 }
 
+// Scores the hypotheses (R, t0) and (R, -t0), in that order, into the best
+// hypothesis of each translation sign (measured against reference_t).
+void ScoreBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t0,
+                    const Eigen::Vector3d& reference_t,
+                    const std::vector<Eigen::Vector2d>& x1,
+                    const std::vector<Eigen::Vector2d>& x2, double max_error,
+                    double min_angle_cos, Hypothesis best[2]) {
+  const int s_plus = t0.dot(reference_t) >= 0 ? 0 : 1;
+  const int s_minus = (-t0).dot(reference_t) >= 0 ? 0 : 1;
+  int plus = 0, minus = 0;
+  CountSupportBothSigns(R, t0, x1, x2, max_error, min_angle_cos,
+                        best[s_plus].support, best[s_minus].support, &plus,
+                        &minus);
+  if (plus > best[s_plus].support) best[s_plus] = {R, t0, plus};
+  if (minus > best[s_minus].support) best[s_minus] = {R, -t0, minus};
+}
+
 // Refines (R, t) on its support by least squares of the Sampson distance.
 void Refine(const std::vector<Eigen::Vector2d>& x1,
             const std::vector<Eigen::Vector2d>& x2, double focal,
@@ -191,6 +208,40 @@ bool SupportsPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return a.dot(b) > min_angle_cos * a.norm() * b.norm();
 }
 
+void CountSupportBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                           const std::vector<Eigen::Vector2d>& x1,
+                           const std::vector<Eigen::Vector2d>& x2,
+                           double max_error, double min_angle_cos,
+                           int at_most_plus, int at_most_minus, int* plus,
+                           int* minus) {
+  const Eigen::Matrix3d E = Skew(t) * R;
+  const int n = static_cast<int>(x1.size());
+  int count_plus = 0;
+  int count_minus = 0;
+  for (int k = 0; k < n; ++k) {
+    const int remaining = n - k;
+    if (count_plus + remaining <= at_most_plus &&
+        count_minus + remaining <= at_most_minus) {
+      break;
+    }
+    if (!(SquaredSampson(E, x1[k], x2[k]) < max_error * max_error)) continue;
+    double d1 = 0, d2 = 0;
+    const bool depths = RayDepths(R, t, x1[k], x2[k], &d1, &d2);
+    const bool front_plus = depths && d1 > 0 && d2 > 0;
+    const bool front_minus = depths && d1 < 0 && d2 < 0;
+    bool parallel = false;
+    if (!front_plus || !front_minus) {
+      const Eigen::Vector3d a = R * x1[k].homogeneous();
+      const Eigen::Vector3d b = x2[k].homogeneous();
+      parallel = a.dot(b) > min_angle_cos * a.norm() * b.norm();
+    }
+    count_plus += front_plus || parallel;
+    count_minus += front_minus || parallel;
+  }
+  *plus = count_plus;
+  *minus = count_minus;
+}
+
 Eigen::Matrix3d EssentialOfPose(const Rigid3d& cam2_from_cam1) {
   return Skew(cam2_from_cam1.translation) *
          cam2_from_cam1.rotation.toRotationMatrix();
@@ -232,12 +283,7 @@ std::vector<RelativePoseHypothesis> EstimateRelativePose(
     }
     if (reference_t.isZero()) reference_t = candidates.front();
     for (const Eigen::Vector3d& t0 : candidates) {
-      for (const double sign : {1.0, -1.0}) {
-        const Eigen::Vector3d t = sign * t0;
-        const int support = CountSupport(R, t, x1, x2, error, angle_cos);
-        const int s = t.dot(reference_t) >= 0 ? 0 : 1;
-        if (support > best[s].support) best[s] = {R, t, support};
-      }
+      ScoreBothSigns(R, t0, reference_t, x1, x2, error, angle_cos, best);
     }
   }
   // Full poses from eight-point samples compete under the same count.
@@ -250,12 +296,7 @@ std::vector<RelativePoseHypothesis> EstimateRelativePose(
       const Eigen::JacobiSVD<Eigen::Matrix3d> svd(E, Eigen::ComputeFullU);
       const Eigen::Vector3d t0 = svd.matrixU().col(2);
       for (const Eigen::Matrix3d& R : RotationsOfEssential(E)) {
-        for (const double sign : {1.0, -1.0}) {
-          const Eigen::Vector3d t = sign * t0;
-          const int support = CountSupport(R, t, x1, x2, error, angle_cos);
-          const int b = t.dot(reference_t) >= 0 ? 0 : 1;
-          if (support > best[b].support) best[b] = {R, t, support};
-        }
+        ScoreBothSigns(R, t0, reference_t, x1, x2, error, angle_cos, best);
       }
     }
   }

@@ -82,6 +82,22 @@ bool SupportsPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
                   const Eigen::Vector2d& x2, double max_error,
                   double min_angle_cos);
 
+/// The support of the hypotheses (R, t) and (R, -t) in one pass over the
+/// correspondences, each counted as SupportsPose counts it: the two share
+/// the Sampson distance and the parallel-ray test, and their depths differ
+/// only in sign. Counting stops early once neither count can exceed its
+/// bound (at_most_plus for t, at_most_minus for -t); a count that can is
+/// exact, one that cannot is at most its bound. -1 bounds count in full.
+/// EstimateRelativePose scores its candidates this way, with the best
+/// support found so far as the bounds (the same hypotheses win as with
+/// full counts, for about half the work).
+void CountSupportBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                           const std::vector<Eigen::Vector2d>& x1,
+                           const std::vector<Eigen::Vector2d>& x2,
+                           double max_error, double min_angle_cos,
+                           int at_most_plus, int at_most_minus, int* plus,
+                           int* minus);
+
 /// The essential matrix [t]x R of a relative pose.
 Eigen::Matrix3d EssentialOfPose(const Rigid3d& cam2_from_cam1);
 

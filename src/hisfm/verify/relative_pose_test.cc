@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "hisfm/util/error.h"
@@ -262,6 +263,80 @@ TEST(SupportsPose, EpipolarDistanceAndCheirality) {
   const Eigen::Vector2d f1 = far.hnormalized(), f2 = (far - c2).hnormalized();
   EXPECT_TRUE(SupportsPose(R, t, E, f1, f2, max_error, angle_cos));
   EXPECT_TRUE(SupportsPose(R, -t, -E, f1, f2, max_error, angle_cos));
+}
+
+// Reference counts of (R, t) and (R, -t), one SupportsPose call each.
+std::pair<int, int> CountWithSupportsPose(const Eigen::Matrix3d& R,
+                                          const Eigen::Vector3d& t,
+                                          const TwoViews& v, double max_error,
+                                          double angle_cos) {
+  const Eigen::Matrix3d E =
+      EssentialOfPose(Rigid3d(Eigen::Quaterniond(R), t));
+  std::pair<int, int> counts{0, 0};
+  for (size_t k = 0; k < v.x1.size(); ++k) {
+    counts.first += SupportsPose(R, t, E, v.x1[k], v.x2[k], max_error, angle_cos);
+    counts.second +=
+        SupportsPose(R, -t, -E, v.x1[k], v.x2[k], max_error, angle_cos);
+  }
+  return counts;
+}
+
+TEST(CountSupportBothSigns, EqualsTwoSeparateCountsAndStopsOnlyWhenNoneCanWin) {
+  const double max_error = 2.0 / kFocal;
+  const double angle_cos = std::cos(0.5 * M_PI / 180.0);
+  int compared = 0;
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    // Points in front (true sign), random outliers, and distant points
+    // whose rays are nearly parallel (neutral: they support both signs).
+    TwoViews v = MakeTwoViews(seed, 60, 30);
+    for (int k = 0; k < 5; ++k) {
+      const Eigen::Vector3d far(0.1 * k, -0.05 * k, 1e5);
+      v.x1.push_back(far.hnormalized());
+      v.x2.push_back((v.pose * far).hnormalized());
+    }
+    const Eigen::Matrix3d R = v.pose.rotation.toRotationMatrix();
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> n(0, 0.05);
+    for (int trial = 0; trial < 6; ++trial) {
+      // The true translation, then perturbed ones (fewer supporters).
+      const Eigen::Vector3d t =
+          (v.pose.translation +
+           (trial == 0 ? Eigen::Vector3d::Zero()
+                       : Eigen::Vector3d(n(rng), n(rng), n(rng))))
+              .normalized();
+      const auto [want_plus, want_minus] =
+          CountWithSupportsPose(R, t, v, max_error, angle_cos);
+      int plus = -1, minus = -1;
+      CountSupportBothSigns(R, t, v.x1, v.x2, max_error, angle_cos, -1, -1,
+                            &plus, &minus);
+      EXPECT_EQ(plus, want_plus);
+      EXPECT_EQ(minus, want_minus);
+      if (trial == 0) {
+        EXPECT_GT(plus, 50);  // The true sign: the inliers and far points.
+        EXPECT_LT(minus, 10);  // The other sign: only the far points.
+      }
+      // Bounds: a count that can exceed its bound is exact; one that
+      // cannot is at most its bound.
+      for (const int bound_plus : {-1, want_plus - 1, want_plus, want_plus + 5}) {
+        for (const int bound_minus : {-1, want_minus - 1, want_minus}) {
+          CountSupportBothSigns(R, t, v.x1, v.x2, max_error, angle_cos,
+                                bound_plus, bound_minus, &plus, &minus);
+          if (want_plus > bound_plus) {
+            EXPECT_EQ(plus, want_plus);
+          } else {
+            EXPECT_LE(plus, bound_plus);
+          }
+          if (want_minus > bound_minus) {
+            EXPECT_EQ(minus, want_minus);
+          } else {
+            EXPECT_LE(minus, bound_minus);
+          }
+          ++compared;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(compared, 5 * 6 * 12);
 }
 
 TEST(RelativePoseOptions, CheckRejectsOutOfRangeValues) {
