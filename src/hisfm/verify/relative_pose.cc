@@ -121,6 +121,15 @@ int CountSupport(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   return count;
 }
 
+// True if the rays of (x1, x2) meet at an angle whose cosine exceeds
+// min_angle_cos (too close to parallel to vote on cheirality).
+bool RaysNearlyParallel(const Eigen::Matrix3d& R, const Eigen::Vector2d& x1,
+                        const Eigen::Vector2d& x2, double min_angle_cos) {
+  const Eigen::Vector3d a = R * x1.homogeneous();
+  const Eigen::Vector3d b = x2.homogeneous();
+  return a.dot(b) > min_angle_cos * a.norm() * b.norm();
+}
+
 // Scores the hypotheses (R, t0) and (R, -t0), in that order, into the best
 // hypothesis of each translation sign (measured against reference_t).
 void ScoreBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t0,
@@ -203,9 +212,7 @@ bool SupportsPose(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
   double d1 = 0, d2 = 0;
   if (RayDepths(R, t, x1, x2, &d1, &d2) && d1 > 0 && d2 > 0) return true;
   // Not in front: neutral only if the rays are too close to parallel.
-  const Eigen::Vector3d a = R * x1.homogeneous();
-  const Eigen::Vector3d b = x2.homogeneous();
-  return a.dot(b) > min_angle_cos * a.norm() * b.norm();
+  return RaysNearlyParallel(R, x1, x2, min_angle_cos);
 }
 
 void CountSupportBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
@@ -229,12 +236,8 @@ void CountSupportBothSigns(const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
     const bool depths = RayDepths(R, t, x1[k], x2[k], &d1, &d2);
     const bool front_plus = depths && d1 > 0 && d2 > 0;
     const bool front_minus = depths && d1 < 0 && d2 < 0;
-    bool parallel = false;
-    if (!front_plus || !front_minus) {
-      const Eigen::Vector3d a = R * x1[k].homogeneous();
-      const Eigen::Vector3d b = x2[k].homogeneous();
-      parallel = a.dot(b) > min_angle_cos * a.norm() * b.norm();
-    }
+    const bool parallel = (!front_plus || !front_minus) &&
+                          RaysNearlyParallel(R, x1[k], x2[k], min_angle_cos);
     count_plus += front_plus || parallel;
     count_minus += front_minus || parallel;
   }
