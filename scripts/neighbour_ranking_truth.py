@@ -7,7 +7,7 @@ identical facades the strongest pair can be a doppelganger, and every later
 step inherits it. This script reads a synthetic scene's COLMAP database
 (read-only) and its pair_labels.txt (`hisfm synth`) and prints, per weight,
 the share of images whose strongest pair is true (at least half of its
-inliers true matches):
+inliers true matches, as scripts/hierarchy_edge_labels.py labels it):
   inliers   the number of inlier matches (the paper's weight);
   burst     the burstiness-weighted support, the sum over inliers of
             1 / sqrt(n1 n2), n1 and n2 the number of verified pairs each of
@@ -25,21 +25,23 @@ Usage:
 """
 import argparse
 import math
+import os
 import sqlite3
 import sys
 from array import array
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import hierarchy_edge_labels as hel  # noqa: E402
+
 # COLMAP's pair id: image_id1 * kMaxNumImages + image_id2, id1 < id2.
 MAX_NUM_IMAGES = 2147483647
-TRUE_SHARE = 0.5
 WEIGHTS = ["inliers", "burst", "distinct"]
 
 
 def read_scene(folder, min_num_inliers):
-    """(names by image id, inlier matches by pair, keypoints per image)."""
+    """(inlier matches by pair, keypoints per image)."""
     db = sqlite3.connect(f"file:{folder}/database.db?mode=ro", uri=True)
     try:
-        names = dict(db.execute("SELECT image_id, name FROM images"))
         num_keypoints = dict(db.execute("SELECT image_id, rows FROM keypoints"))
         pairs = {}
         for pair_id, rows, data in db.execute(
@@ -52,21 +54,7 @@ def read_scene(folder, min_num_inliers):
             pairs[(id1, id2)] = list(zip(flat[0::2], flat[1::2]))
     finally:
         db.close()
-    return names, pairs, num_keypoints
-
-
-def read_labels(path, names):
-    """Share of true matches among each pair's inliers, by (id1, id2)."""
-    by_name = {name: image_id for image_id, name in names.items()}
-    shares = {}
-    with open(path) as f:
-        for line in f:
-            if line.startswith("#") or not line.strip():
-                continue
-            name1, name2, inliers, true = line.split()[:4]
-            a, b = sorted((by_name[name1], by_name[name2]))
-            shares[(a, b)] = int(true) / max(1, int(inliers))
-    return shares
+    return pairs, num_keypoints
 
 
 def keypoint_degrees(pairs, num_keypoints):
@@ -103,9 +91,9 @@ def pair_weights(pairs, degrees, fraction):
     return weights
 
 
-def top_neighbour_truth(weights, shares):
-    """Share of images whose strongest pair by `weights` is true (ties: the
-    pair seen first)."""
+def top_neighbour_truth(weights, true_pairs):
+    """Share of images whose strongest pair by `weights` is in `true_pairs`
+    (ties: the pair seen first)."""
     best = {}
     for pair, w in weights.items():
         for image_id in pair:
@@ -113,8 +101,7 @@ def top_neighbour_truth(weights, shares):
                 best[image_id] = (w, pair)
     if not best:
         return math.nan
-    true = sum(shares.get(pair, 0.0) >= TRUE_SHARE
-               for _, pair in best.values())
+    true = sum(pair in true_pairs for _, pair in best.values())
     return true / len(best)
 
 
@@ -127,15 +114,16 @@ def main(argv):
     print("scene " + " ".join(WEIGHTS))
     for folder in args.scenes:
         try:
-            names, pairs, num_keypoints = read_scene(folder,
-                                                     args.min_num_inliers)
-            shares = read_labels(f"{folder}/pair_labels.txt", names)
+            pairs, num_keypoints = read_scene(folder, args.min_num_inliers)
+            labels = hel.read_pair_labels(f"{folder}/pair_labels.txt")
         except (OSError, sqlite3.Error, KeyError, ValueError) as e:
             print(f"error: {folder}: {e}", file=sys.stderr)
             return 1
+        true_pairs = {pair for pair, label in labels.items()
+                      if label[0] == hel.TRUE}
         weights = pair_weights(pairs, keypoint_degrees(pairs, num_keypoints),
                                args.fraction)
-        row = [f"{top_neighbour_truth(weights[name], shares):.2f}"
+        row = [f"{top_neighbour_truth(weights[name], true_pairs):.2f}"
                for name in WEIGHTS]
         print(folder.rstrip("/").split("/")[-1] + " " + " ".join(row))
     return 0

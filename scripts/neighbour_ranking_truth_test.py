@@ -33,7 +33,7 @@ def scene_pairs():
 
 
 def write_scene(folder):
-    """A COLMAP-like database (the tables the script reads) and the pair
+    """A COLMAP-like database (images, and the tables the script reads) and the pair
     labels `hisfm synth` writes."""
     pairs = scene_pairs()
     db = sqlite3.connect(os.path.join(folder, "database.db"))
@@ -78,12 +78,13 @@ class NeighbourRankingTruthTest(unittest.TestCase):
 
     def test_top_neighbour_truth(self):
         # Images 1, 2 and 3; image 3's only pair is false.
-        shares = {(1, 2): 1.0, (1, 3): 0.0}
+        true_pairs = {(1, 2)}
         self.assertAlmostEqual(
-            nrt.top_neighbour_truth({(1, 2): 6, (1, 3): 8}, shares), 1 / 3)
+            nrt.top_neighbour_truth({(1, 2): 6, (1, 3): 8}, true_pairs), 1 / 3)
         self.assertAlmostEqual(
-            nrt.top_neighbour_truth({(1, 2): 9, (1, 3): 8}, shares), 2 / 3)
-        self.assertTrue(nrt.math.isnan(nrt.top_neighbour_truth({}, shares)))
+            nrt.top_neighbour_truth({(1, 2): 9, (1, 3): 8}, true_pairs), 2 / 3)
+        self.assertTrue(
+            nrt.math.isnan(nrt.top_neighbour_truth({}, true_pairs)))
 
     def test_main_prints_each_weights_share(self):
         with tempfile.TemporaryDirectory() as tmp:
