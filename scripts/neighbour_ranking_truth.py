@@ -116,7 +116,7 @@ def main(argv):
         try:
             pairs, num_keypoints = read_scene(folder, args.min_num_inliers)
             labels = hel.read_pair_labels(f"{folder}/pair_labels.txt")
-        except (OSError, sqlite3.Error, KeyError, ValueError) as e:
+        except (OSError, sqlite3.Error, ValueError) as e:
             print(f"error: {folder}: {e}", file=sys.stderr)
             return 1
         true_pairs = {pair for pair, label in labels.items()

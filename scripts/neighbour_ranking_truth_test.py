@@ -33,16 +33,14 @@ def scene_pairs():
 
 
 def write_scene(folder):
-    """A COLMAP-like database (images, and the tables the script reads) and the pair
+    """A COLMAP-like database (the tables the script reads) and the pair
     labels `hisfm synth` writes."""
     pairs = scene_pairs()
     db = sqlite3.connect(os.path.join(folder, "database.db"))
-    db.execute("CREATE TABLE images (image_id INTEGER, name TEXT)")
     db.execute("CREATE TABLE keypoints (image_id INTEGER, rows INTEGER)")
     db.execute("CREATE TABLE two_view_geometries "
                "(pair_id INTEGER, rows INTEGER, data BLOB)")
     for i in range(1, 6):
-        db.execute("INSERT INTO images VALUES (?, ?)", (i, f"{i - 1:06d}.png"))
         db.execute("INSERT INTO keypoints VALUES (?, ?)", (i, NUM_KEYPOINTS))
     for (a, b), matches in pairs.items():
         flat = array("I", [k for m in matches for k in m])
