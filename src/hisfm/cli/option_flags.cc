@@ -58,6 +58,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "A bridge closing a cycle with the skeleton is taken only if the "
         "cycle's rotations compose within this (degrees; 0: off; verifiers "
         "that report no rotations, e.g. scores: and command:, skip it)");
+  visit("--HiSfM.rank_tiers", h.skeleton.rank_tiers,
+        "Trees take bridges by neighbour rank tiers 1..N before weight "
+        "(0: by weight, as Algorithm 1)");
   visit("--HiSfM.leaf_edges", h.leaves.leaf_edges,
         "Edges per leaf to skeletal images of its community");
   visit("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,

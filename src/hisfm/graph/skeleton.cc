@@ -1,6 +1,7 @@
 #include "hisfm/graph/skeleton.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -40,6 +41,7 @@ void SkeletonOptions::Check() const {
                      max_cycle_rotation_deg >= 0.0 &&
                          max_cycle_rotation_deg <= 180.0,
                      "in [0.0, 180.0]");
+  HISFM_CHECK_OPTION(rank_tiers, rank_tiers >= 0, ">= 0");
 }
 
 double SkeletonOptions::ThresholdFor(BridgeRole role, int tree) const {
@@ -88,6 +90,9 @@ struct Bridge {
   uint32_t weight;
   // Dense id of the bridge's community pair.
   uint32_t kappa;
+  // The larger of the pair's ranks among its two images' pairs by weight
+  // (1 = strongest; SkeletonOptions::rank_tiers).
+  uint32_t rank = 0;
 };
 
 constexpr double kNotScored = -1.0;
@@ -329,6 +334,7 @@ class SkeletonBuilder {
       const CommunityId b = communities.Of(e.pair.image_id2);
       if (a != b) bridges_.push_back({e.pair, a, b, e.weight, 0});
     }
+    if (options.rank_tiers > 0) SetRanks(graph);
     std::stable_sort(bridges_.begin(), bridges_.end(),
                      [](const Bridge& x, const Bridge& y) {
                        return x.weight > y.weight;
@@ -351,6 +357,9 @@ class SkeletonBuilder {
 
   // Algorithm 1: K greedy trees; returns whether every tree spans.
   bool PackTrees();
+  // Bridge indices in the order the trees meet them (rank tiers, then
+  // weight; SkeletonOptions::rank_tiers).
+  std::vector<size_t> TreeOrder() const;
   // Verified bridges across minimum cuts until K-edge-connected.
   void RestoreConnectivity();
   // Verified parallel bridges for tree bridges with few inliers.
@@ -364,6 +373,9 @@ class SkeletonBuilder {
   Skeleton Finish(const ViewGraph& graph, const Communities& communities);
 
  private:
+  // Fills Bridge::rank from every image's pairs ranked by weight (ties:
+  // the smaller neighbour id first, as StrongestNeighbours).
+  void SetRanks(const ViewGraph& graph);
   void Reject(size_t k, double score, BridgeRole role,
               double cycle_error_deg = -1.0) {
     if (!rejected_seen_[k]) {
@@ -486,6 +498,36 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   return true;
 }
 
+void SkeletonBuilder::SetRanks(const ViewGraph& graph) {
+  std::unordered_map<ImagePair, std::array<uint32_t, 2>, ImagePairHash> ranks;
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    const ImageId id = graph.Images()[i];
+    const std::vector<size_t> edges =
+        StrongestEdges(graph, i, graph.IncidentEdges(i).size());
+    for (size_t r = 0; r < edges.size(); ++r) {
+      const ImagePair& p = graph.Edges()[edges[r]].pair;
+      ranks[p][p.image_id1 == id ? 0 : 1] = static_cast<uint32_t>(r + 1);
+    }
+  }
+  for (Bridge& b : bridges_) {
+    const std::array<uint32_t, 2>& r = ranks.at(b.pair);
+    b.rank = std::max(r[0], r[1]);
+  }
+}
+
+std::vector<size_t> SkeletonBuilder::TreeOrder() const {
+  std::vector<size_t> order(bridges_.size());
+  for (size_t k = 0; k < bridges_.size(); ++k) order[k] = k;
+  if (options_.rank_tiers > 0) {
+    const uint32_t last = static_cast<uint32_t>(options_.rank_tiers) + 1;
+    std::stable_sort(order.begin(), order.end(), [&](size_t x, size_t y) {
+      return std::min(bridges_[x].rank, last) <
+             std::min(bridges_[y].rank, last);
+    });
+  }
+  return order;
+}
+
 bool SkeletonBuilder::PackTrees() {
   // A tree can hold at most m - c edges, c = components of the community
   // graph (a forest when the view graph is disconnected).
@@ -497,8 +539,7 @@ bool SkeletonBuilder::PackTrees() {
       1, std::min<size_t>(options_.max_verify_batch_size,
                           scorer_ ? scorer_->PreferredBatchSize() : 1));
   // Candidates of the trees: bridges not rejected and not on a used pair.
-  std::vector<size_t> candidates(bridges_.size());
-  for (size_t k = 0; k < bridges_.size(); ++k) candidates[k] = k;
+  std::vector<size_t> candidates = TreeOrder();
   bool all_trees_span = max_tree_edges > 0;
   // Rejections met since the last bridge taken: sizes speculative batches.
   size_t rejection_run = 0;

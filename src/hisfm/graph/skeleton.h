@@ -27,8 +27,13 @@
 // of one community are then
 // joined by intra-community edges (no verification).
 //
-// Kruskal is kept exact (a deferral rule that was tried verified more
-// bridges, not fewer: docs/decisions.md).
+// A third deviation: the trees meet the bridges in tiers of neighbour rank
+// before weight (SkeletonOptions::rank_tiers): a bridge among the few
+// strongest pairs of both its images (mutual k-nearest neighbours, as the
+// communities use k = 1) comes before a heavier one that is not.
+//
+// Kruskal is kept exact within that order (a deferral rule that was tried
+// verified more bridges, not fewer: docs/decisions.md).
 #pragma once
 
 #include <map>
@@ -116,6 +121,19 @@ struct SkeletonOptions {
   /// rotations (BridgeScorer::CycleRotationErrorDeg); 0 turns the check
   /// off.
   double max_cycle_rotation_deg = 45.0;
+  /// Trees meet bridges by neighbour rank before weight: a bridge's rank is
+  /// the larger, over its two images, of its place among that image's
+  /// verified pairs by weight (1 = the strongest). Bridges of rank r <=
+  /// rank_tiers come in tier r, each tier in weight order, and all the
+  /// others after them, in weight order; 0 keeps Algorithm 1's order by
+  /// weight. A deviation from Algorithm 1 (which orders by weight alone):
+  /// on a street an image has one or two true pairs among a hundred or more
+  /// doppelgangers, so the true link between two neighbouring communities
+  /// is among the strongest pairs of both its images, while a doppelganger
+  /// can outweigh it and still be among neither image's strongest (the
+  /// mutual k-nearest-neighbour graph, as the communities use for k = 1).
+  /// Only the trees use this order; redundant bridges keep weight order.
+  int rank_tiers = 4;
 
   void Check() const;
   /// The threshold a bridge of `role` must reach (`tree`: its tree index,

@@ -201,7 +201,9 @@ TEST(Skeleton, VerifiesOnlyBridgesKruskalWouldTakeOnceEach) {
     SkeletonOptions options;
     options.num_trees = 2;
     options.num_backup_bridges = 0;
-    // Algorithm 1 as the paper states it: no budget for the second tree.
+    // Algorithm 1 as the paper states it: bridges by weight, no budget for
+    // the second tree.
+    options.rank_tiers = 0;
     options.redundant_budget_trees = 1e6;
     const Skeleton s = BuildSkeleton(g, c, &scorer, options);
     const std::vector<ImagePair> expected =
@@ -401,6 +403,8 @@ TEST(Skeleton, TopWeightBridgesGoOnCommunityPairsNotUsedYet) {
   SkeletonOptions options;
   options.num_trees = 1;
   options.num_backup_bridges = 0;
+  // Trees by weight (with rank tiers, (2,6), rank 2, would join A-C).
+  options.rank_tiers = 0;
   // One tree: (1,3) and (1,5); no top-weight bridge by default.
   const Skeleton tree_only = BuildSkeleton(g, c, nullptr, options);
   EXPECT_EQ(Roles(tree_only.bridges),
@@ -437,6 +441,58 @@ TEST(Skeleton, TopWeightBridgesGoOnCommunityPairsNotUsedYet) {
             (std::set<std::pair<ImagePair, BridgeRole>>{
                 {ImagePair(3, 5), BridgeRole::kTopWeight}}));
   for (const BridgeRecord& b : verified.bridges) EXPECT_TRUE(b.accepted);
+}
+
+// Communities A = {1, 2}, B = {3, 4}, C = {5, 6}. Bridges (rank = the larger
+// of the pair's places among its two images' pairs by weight): A-C (1,5)
+// 800, rank 2; A-C (1,6) 700, rank 3; A-B (1,4) 500, rank 4 (image 1 has
+// 1-2, 1-5 and 1-6 above it); A-B (2,3) 300, rank 2.
+ViewGraph RankedBridges() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(3, 4), 1001},
+       {ImagePair(5, 6), 1002}, {ImagePair(1, 5), 800},
+       {ImagePair(1, 6), 700},  {ImagePair(1, 4), 500},
+       {ImagePair(2, 3), 300}});
+}
+
+TEST(Skeleton, RankTiersTakeMutuallyStrongBridgesBeforeHeavierOnes) {
+  const ViewGraph g = RankedBridges();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 3u);
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.num_backup_bridges = 0;
+  using RoleSet = std::set<std::pair<ImagePair, BridgeRole>>;
+  // Algorithm 1's order (by weight) joins A-B through (1,4).
+  options.rank_tiers = 0;
+  const Skeleton by_weight = BuildSkeleton(g, c, nullptr, options);
+  EXPECT_EQ(Roles(by_weight.bridges),
+            (RoleSet{{ImagePair(1, 5), BridgeRole::kTree},
+                    {ImagePair(1, 4), BridgeRole::kTree}}));
+  // Tier 2 holds (1,5) and (2,3): the lighter (2,3) joins A-B.
+  for (const int tiers : {2, 3}) {
+    options.rank_tiers = tiers;
+    const Skeleton tiered = BuildSkeleton(g, c, nullptr, options);
+    EXPECT_EQ(Roles(tiered.bridges),
+              (RoleSet{{ImagePair(1, 5), BridgeRole::kTree},
+                      {ImagePair(2, 3), BridgeRole::kTree}}))
+        << tiers;
+  }
+  // Verified in the tiers' order: a rejected (2,3) leaves A-B to the
+  // bridges past the tiers, (1,4) (rank 4), not scored before (2,3).
+  options.rank_tiers = 3;
+  RecordingScorer scorer;
+  scorer.reject = {ImagePair(2, 3)};
+  const Skeleton verified = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(scorer.calls, (std::vector<ImagePair>{
+                              ImagePair(1, 5), ImagePair(2, 3),
+                              ImagePair(1, 4)}));
+  EXPECT_EQ(Roles(verified.bridges),
+            (RoleSet{{ImagePair(1, 5), BridgeRole::kTree},
+                    {ImagePair(1, 4), BridgeRole::kTree}}));
+  options.rank_tiers = -1;
+  EXPECT_THROW(options.Check(), Error);
 }
 
 // Communities A = {1, 2}, B = {3, 4}, C = {5, 6} joined only by weak
