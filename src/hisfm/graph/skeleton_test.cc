@@ -396,15 +396,21 @@ ViewGraph ThreeCommunities() {
        {ImagePair(3, 5), 100},  {ImagePair(4, 6), 90}});
 }
 
+// One tree, no backup bridges, trees by weight (Algorithm 1's order).
+SkeletonOptions OneTreeByWeight() {
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.num_backup_bridges = 0;
+  options.rank_tiers = 0;
+  return options;
+}
+
 TEST(Skeleton, TopWeightBridgesGoOnCommunityPairsNotUsedYet) {
   const ViewGraph g = ThreeCommunities();
   const Communities c = ComputeCommunities(g, CommunityOptions());
   ASSERT_EQ(c.NumCommunities(), 3u);
-  SkeletonOptions options;
-  options.num_trees = 1;
-  options.num_backup_bridges = 0;
+  SkeletonOptions options = OneTreeByWeight();
   // Trees by weight (with rank tiers, (2,6), rank 2, would join A-C).
-  options.rank_tiers = 0;
   // One tree: (1,3) and (1,5); no top-weight bridge by default.
   const Skeleton tree_only = BuildSkeleton(g, c, nullptr, options);
   EXPECT_EQ(Roles(tree_only.bridges),
@@ -459,13 +465,9 @@ ViewGraph RankedBridges() {
 TEST(Skeleton, RankTiersTakeMutuallyStrongBridgesBeforeHeavierOnes) {
   const ViewGraph g = RankedBridges();
   const Communities c = ComputeCommunities(g, CommunityOptions());
-  ASSERT_EQ(c.NumCommunities(), 3u);
-  SkeletonOptions options;
-  options.num_trees = 1;
-  options.num_backup_bridges = 0;
+  SkeletonOptions options = OneTreeByWeight();
   using RoleSet = std::set<std::pair<ImagePair, BridgeRole>>;
   // Algorithm 1's order (by weight) joins A-B through (1,4).
-  options.rank_tiers = 0;
   const Skeleton by_weight = BuildSkeleton(g, c, nullptr, options);
   EXPECT_EQ(Roles(by_weight.bridges),
             (RoleSet{{ImagePair(1, 5), BridgeRole::kTree},
