@@ -1,7 +1,6 @@
 #include "hisfm/graph/skeleton.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdint>
 #include <memory>
@@ -94,6 +93,22 @@ struct Bridge {
   // (1 = strongest; SkeletonOptions::rank_tiers).
   uint32_t rank = 0;
 };
+
+// Per edge of `graph` (in Edges() order): the larger, over its two images,
+// of its place among that image's edges by weight (1 = the strongest; ties
+// as StrongestEdges).
+std::vector<uint32_t> MutualRanks(const ViewGraph& graph) {
+  std::vector<uint32_t> ranks(graph.NumEdges(), 0);
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    const std::vector<size_t> edges =
+        StrongestEdges(graph, i, graph.IncidentEdges(i).size());
+    for (size_t r = 0; r < edges.size(); ++r) {
+      ranks[edges[r]] =
+          std::max(ranks[edges[r]], static_cast<uint32_t>(r + 1));
+    }
+  }
+  return ranks;
+}
 
 constexpr double kNotScored = -1.0;
 // Candidates a speculative batch looks through, at most.
@@ -329,12 +344,18 @@ class SkeletonBuilder {
         scorer_(scorer),
         held_communities_(communities.NumCommunities()) {
     skeleton_.num_trees = options.NumTreesFor(graph.NumImages());
-    for (const ViewGraphEdge& e : graph.Edges()) {
+    const std::vector<uint32_t> ranks = options.rank_tiers > 0
+                                            ? MutualRanks(graph)
+                                            : std::vector<uint32_t>();
+    for (size_t k = 0; k < graph.NumEdges(); ++k) {
+      const ViewGraphEdge& e = graph.Edges()[k];
       const CommunityId a = communities.Of(e.pair.image_id1);
       const CommunityId b = communities.Of(e.pair.image_id2);
-      if (a != b) bridges_.push_back({e.pair, a, b, e.weight, 0});
+      if (a != b) {
+        bridges_.push_back(
+            {e.pair, a, b, e.weight, 0, ranks.empty() ? 0 : ranks[k]});
+      }
     }
-    if (options.rank_tiers > 0) SetRanks(graph);
     std::stable_sort(bridges_.begin(), bridges_.end(),
                      [](const Bridge& x, const Bridge& y) {
                        return x.weight > y.weight;
@@ -373,9 +394,6 @@ class SkeletonBuilder {
   Skeleton Finish(const ViewGraph& graph, const Communities& communities);
 
  private:
-  // Fills Bridge::rank from every image's pairs ranked by weight (ties:
-  // the smaller neighbour id first, as StrongestNeighbours).
-  void SetRanks(const ViewGraph& graph);
   void Reject(size_t k, double score, BridgeRole role,
               double cycle_error_deg = -1.0) {
     if (!rejected_seen_[k]) {
@@ -496,23 +514,6 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
     return false;
   }
   return true;
-}
-
-void SkeletonBuilder::SetRanks(const ViewGraph& graph) {
-  std::unordered_map<ImagePair, std::array<uint32_t, 2>, ImagePairHash> ranks;
-  for (size_t i = 0; i < graph.NumImages(); ++i) {
-    const ImageId id = graph.Images()[i];
-    const std::vector<size_t> edges =
-        StrongestEdges(graph, i, graph.IncidentEdges(i).size());
-    for (size_t r = 0; r < edges.size(); ++r) {
-      const ImagePair& p = graph.Edges()[edges[r]].pair;
-      ranks[p][p.image_id1 == id ? 0 : 1] = static_cast<uint32_t>(r + 1);
-    }
-  }
-  for (Bridge& b : bridges_) {
-    const std::array<uint32_t, 2>& r = ranks.at(b.pair);
-    b.rank = std::max(r[0], r[1]);
-  }
 }
 
 std::vector<size_t> SkeletonBuilder::TreeOrder() const {
