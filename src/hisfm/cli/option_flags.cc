@@ -68,10 +68,17 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.verifier", o->verifier.verifier,
         "Bridge verifier: builtin, none, scores:FILE, command:CMD");
   visit("--HiSfM.trusted_threshold",
-        o->verifier.verified_hierarchy.trusted_threshold,
-        "builtin verifier: a trusted edge (community, intra-community "
-        "or leaf edge) scoring below this is removed and the "
-        "hierarchy rebuilt");
+        o->verifier.verified_hierarchy.trusted_edges.threshold,
+        "A trusted edge (community, intra-community or leaf edge) "
+        "scoring below this is removed and the hierarchy rebuilt "
+        "(builtin verifier; others with --HiSfM.judge_trusted_edges)");
+  visit("--HiSfM.trusted_rounds",
+        o->verifier.verified_hierarchy.trusted_edges.max_rounds,
+        "Rebuilds of the hierarchy without rejected trusted edges, at "
+        "most");
+  visit("--HiSfM.judge_trusted_edges", o->verifier.judge_trusted_edges,
+        "Verifiers other than builtin (which always does): score the "
+        "trusted edges too, not only the bridges");
   visit("--HiSfM.support_edges",
         o->verifier.verified_hierarchy.support_edges,
         "builtin verifier: each image's strongest pairs that pass "

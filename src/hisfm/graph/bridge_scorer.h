@@ -36,6 +36,27 @@ class BridgeScorer {
   }
 };
 
+/// A non-owning adapter: forwards every call to a scorer the caller keeps
+/// alive (for APIs that take ownership of a scorer, e.g. ScorerFactory).
+class BorrowedScorer : public BridgeScorer {
+ public:
+  explicit BorrowedScorer(BridgeScorer* scorer) : scorer_(scorer) {}
+  std::string Name() const override { return scorer_->Name(); }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    return scorer_->Score(pairs);
+  }
+  size_t PreferredBatchSize() const override {
+    return scorer_->PreferredBatchSize();
+  }
+  bool IsFree() const override { return scorer_->IsFree(); }
+  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
+    return scorer_->CycleRotationErrorDeg(cycle);
+  }
+
+ private:
+  BridgeScorer* scorer_;
+};
+
 /// The default of the foundation: accepts every bridge with score 1.
 class AcceptAllScorer : public BridgeScorer {
  public:

@@ -28,23 +28,7 @@ Hierarchy BuildHierarchy(const ViewGraph& graph, BridgeScorer* scorer,
       graph,
       [scorer](const Communities&) -> std::unique_ptr<BridgeScorer> {
         if (!scorer) return nullptr;
-        // Non-owning adapter around the caller's scorer.
-        struct Borrowed : BridgeScorer {
-          BridgeScorer* s;
-          explicit Borrowed(BridgeScorer* x) : s(x) {}
-          std::string Name() const override { return s->Name(); }
-          std::vector<double> Score(const std::vector<ImagePair>& p) override {
-            return s->Score(p);
-          }
-          size_t PreferredBatchSize() const override {
-            return s->PreferredBatchSize();
-          }
-          double CycleRotationErrorDeg(
-              const std::vector<ImageId>& cycle) override {
-            return s->CycleRotationErrorDeg(cycle);
-          }
-        };
-        return std::make_unique<Borrowed>(scorer);
+        return std::make_unique<BorrowedScorer>(scorer);
       },
       options);
 }

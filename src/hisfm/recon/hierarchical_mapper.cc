@@ -100,7 +100,8 @@ struct LoadedInput {
   /// cleaned inliers of the hierarchy's edges, and counts.
   std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
       inliers;
-  nlohmann::json multiview;
+  // Counts of the trusted-edge rounds (and of the builtin verifier).
+  nlohmann::json verification;
   // Verified pairs kept back for images the hierarchy cannot register
   // (VerifiedHierarchy::reserve_edges).
   std::vector<ViewGraphEdge> reserve_edges;
@@ -158,7 +159,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
     in.reserve_edges = std::move(verified.reserve_edges);
-    in.multiview = {{"rounds", verified.rounds},
+    in.verification = {{"rounds", verified.rounds},
                     {"rejected_trusted_edges", verified.rejected.size()},
                     {"unresolved_trusted_edges", verified.num_unresolved},
                     {"pairs_evaluated", verifier.NumEvaluated()},
@@ -171,21 +172,41 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
         verifier.NumEvaluated(), verified.rejected.size(), verified.rounds,
         verified.num_inliers_after, verified.num_inliers_before);
   } else {
-  in.hierarchy = BuildHierarchy(
-      in.graph,
-      [&](const Communities& communities) {
-        VerifierContext context;
-        context.database = &db;
-        context.graph = &in.graph;
-        context.communities = &communities;
-        context.image_path = image_path;
-        context.image_names = in.names;
-        std::unique_ptr<BridgeScorer> scorer =
-            CreateVerifier(options.verifier, context);
-        in.verifier_name = scorer->Name();
-        return scorer;
-      },
-      options.hierarchy);
+    // A verifier that does not read the communities is created once and
+    // lent to every build (a scores file is parsed once).
+    std::unique_ptr<BridgeScorer> reused;
+    const ScorerFactory make_scorer =
+        [&](const Communities& communities) -> std::unique_ptr<BridgeScorer> {
+      if (reused) return std::make_unique<BorrowedScorer>(reused.get());
+      VerifierContext context;
+      context.database = &db;
+      context.graph = &in.graph;
+      const bool per_build = options.verifier.UsesCommunities();
+      context.communities = per_build ? &communities : nullptr;
+      context.image_path = image_path;
+      context.image_names = in.names;
+      std::unique_ptr<BridgeScorer> scorer =
+          CreateVerifier(options.verifier, context);
+      in.verifier_name = scorer->Name();
+      if (per_build) return scorer;
+      reused = std::move(scorer);
+      return std::make_unique<BorrowedScorer>(reused.get());
+    };
+    if (options.verifier.judge_trusted_edges) {
+      JudgedHierarchy judged = BuildHierarchyJudgingTrustedEdges(
+          in.graph, make_scorer, options.hierarchy,
+          options.verifier.verified_hierarchy.trusted_edges);
+      in.hierarchy = std::move(judged.hierarchy);
+      in.verification = {{"rounds", judged.rounds},
+                      {"rejected_trusted_edges", judged.rejected.size()},
+                      {"unresolved_trusted_edges", judged.num_unresolved},
+                      {"trusted_edges_scored", judged.num_scored}};
+      HISFM_LOG_INFO("trusted edges: {} scored, {} rejected in {} round(s)",
+                     judged.num_scored, judged.rejected.size(),
+                     judged.rounds);
+    } else {
+      in.hierarchy = BuildHierarchy(in.graph, make_scorer, options.hierarchy);
+    }
   }
   in.graph_seconds = timer.ElapsedSeconds();
   const Hierarchy& h = in.hierarchy;
@@ -349,7 +370,7 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"verified_pairs", in.num_verified_pairs},
           {"pairs_after_filter", in.graph.NumEdges()},
           {"pair_filter", in.pair_filter},
-          {"multiview", in.multiview},
+          {"verification", in.verification},
           {"communities", h.communities.NumCommunities()},
           {"candidate_bridges", h.skeleton.num_candidate_bridges},
           {"num_trees", h.skeleton.num_trees},

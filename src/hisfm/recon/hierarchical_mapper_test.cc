@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
@@ -144,7 +145,7 @@ void ExpectCorrect(const std::string& scene, size_t num_images,
   paths.output_path = tmp / "out";
   const nlohmann::json summary =
       RunHierarchicalMapper(paths, HierarchicalMapperOptions());
-  EXPECT_GT(summary["multiview"]["pairs_evaluated"].get<int>(), 0)
+  EXPECT_GT(summary["verification"]["pairs_evaluated"].get<int>(), 0)
       << "the builtin verifier judged no pair";
   EXPECT_LT(summary["verified_fraction"].get<double>(), 0.25);
   const Reconstruction reference =
@@ -378,6 +379,67 @@ TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
                                          ReadModel(tmp / "scene/ground_truth"),
                                          {});
   EXPECT_TRUE(e.correct) << e.verdict_reason;
+}
+
+// Writes an oracle plug-in's scores: each verified pair's true share of
+// inliers, from the pair_labels.txt of a synthetic scene (lines NAME1 NAME2
+// INLIERS TRUE DOPPELGANGER RANDOM).
+void WriteOracleScores(const std::string& labels_path,
+                       const std::string& scores_path) {
+  std::ifstream in(labels_path);
+  std::ofstream out(scores_path);
+  std::string line;
+  size_t num_pairs = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string name1, name2;
+    double inliers = 0, num_true = 0;
+    fields >> name1 >> name2 >> inliers >> num_true;
+    ASSERT_GT(inliers, 0) << line;
+    out << name1 << ' ' << name2 << ' ' << num_true / inliers << '\n';
+    ++num_pairs;
+  }
+  ASSERT_GT(num_pairs, 0u) << labels_path;
+}
+
+// A 40-image repeated street (tuning seed of the synthetic families) whose
+// hierarchy trusts a doppelganger: with a perfect plug-in verifier that
+// judges the bridges only, the model folds; judging the trusted edges too
+// makes it correct.
+TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  SynthOptions synth;
+  synth.scene = "facade_street";
+  synth.num_images = 40;
+  synth.seed = 7;
+  synth.family.randomize = true;
+  WriteSyntheticDataset(synth, tmp / "scene");
+  WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
+  const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
+  MapperPaths paths;
+  paths.database_path = tmp / "scene/database.db";
+  paths.image_path = tmp / "scene/images";
+  HierarchicalMapperOptions options;
+  options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
+
+  options.verifier.judge_trusted_edges = false;
+  paths.output_path = tmp / "bridges_only";
+  RunHierarchicalMapper(paths, options);
+  const PoseEvaluation bridges_only =
+      EvaluateModel(ReadModel(tmp / "bridges_only/0"), truth, {});
+  EXPECT_FALSE(bridges_only.correct) << "the premise: a trusted doppelganger";
+
+  options.verifier.judge_trusted_edges = true;
+  paths.output_path = tmp / "judged";
+  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  EXPECT_GT(summary["verification"]["rejected_trusted_edges"].get<size_t>(), 0u);
+  EXPECT_GT(summary["verification"]["trusted_edges_scored"].get<size_t>(), 0u);
+  EXPECT_EQ(summary["registered_images"], 40);
+  const PoseEvaluation judged =
+      EvaluateModel(ReadModel(tmp / "judged/0"), truth, {});
+  EXPECT_TRUE(judged.correct) << judged.verdict_reason;
 }
 
 TEST(ExhaustiveFilter, DropsRejectedPairsAndKeepsTheInput) {

@@ -9,26 +9,11 @@
 namespace hisfm {
 
 void VerifiedHierarchyOptions::Check() const {
-  HISFM_CHECK_OPTION(max_rounds, max_rounds >= 1, ">= 1");
-  HISFM_CHECK_OPTION(trusted_threshold,
-                     trusted_threshold >= 0 && trusted_threshold <= 1,
-                     "in [0, 1]");
+  trusted_edges.Check();
   HISFM_CHECK_OPTION(support_edges, support_edges >= 0, ">= 0");
   HISFM_CHECK_OPTION(support_threshold,
                      support_threshold >= 0 && support_threshold <= 1,
                      "in [0, 1]");
-}
-
-std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
-  std::set<ImagePair> edges;
-  for (const ViewGraphEdge& e : hierarchy.communities.top_k_edges) {
-    edges.insert(e.pair);
-  }
-  for (const ViewGraphEdge& e : hierarchy.skeleton.intra_edges) {
-    edges.insert(e.pair);
-  }
-  for (const ViewGraphEdge& e : hierarchy.leaf_edges) edges.insert(e.pair);
-  return {edges.begin(), edges.end()};
 }
 
 void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
@@ -90,35 +75,22 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     const VerifiedHierarchyOptions& options) {
   options.Check();
   VerifiedHierarchy out;
-  out.graph = graph;
-  std::set<ImagePair> removed;
-  for (int round = 0; round < options.max_rounds; ++round) {
-    out.rounds = round + 1;
-    out.hierarchy = BuildHierarchy(out.graph, &verifier, hierarchy_options);
-    std::vector<RejectedTrustedEdge> failing;
-    for (const ImagePair& pair : TrustedEdges(out.hierarchy)) {
-      const double score = verifier.Score({pair}).front();
+  JudgedHierarchy judged = BuildHierarchyJudgingTrustedEdges(
+      graph,
+      [&verifier](const Communities&) -> std::unique_ptr<BridgeScorer> {
+        return std::make_unique<BorrowedScorer>(&verifier);
+      },
+      hierarchy_options, options.trusted_edges,
       // Only the test's evidence removes a trusted edge: a pair it could
       // not judge keeps the trust the paper gives it.
-      if (score < options.trusted_threshold &&
-          verifier.Features(pair).Speaks()) {
-        failing.push_back({pair, out.graph.Weight(pair.image_id1,
-                                                  pair.image_id2),
-                           score, round});
-      }
-    }
-    out.num_unresolved = failing.size();
-    if (failing.empty() || round + 1 == options.max_rounds) break;
-    for (const RejectedTrustedEdge& r : failing) removed.insert(r.pair);
-    out.rejected.insert(out.rejected.end(), failing.begin(), failing.end());
-    std::vector<ViewGraphEdge> kept;
-    for (const ViewGraphEdge& e : out.graph.Edges()) {
-      if (!removed.count(e.pair)) kept.push_back(e);
-    }
-    out.graph = ViewGraph::FromEdges(graph.Images(), kept);
-    HISFM_LOG_DEBUG("verified hierarchy: round {} rejected {} trusted edges",
-                    round, failing.size());
-  }
+      [&verifier](const ImagePair& pair) {
+        return verifier.Features(pair).Speaks();
+      });
+  out.hierarchy = std::move(judged.hierarchy);
+  out.graph = std::move(judged.graph);
+  out.rejected = std::move(judged.rejected);
+  out.rounds = judged.rounds;
+  out.num_unresolved = judged.num_unresolved;
   AddSupportEdges(out.graph, verifier, options.support_edges,
                   options.support_threshold, &out.hierarchy,
                   &out.reserve_edges,

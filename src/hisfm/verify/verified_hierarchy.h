@@ -1,33 +1,28 @@
-// The HiSfM hierarchy with every edge it uses verified.
+// The HiSfM hierarchy with every edge it uses verified by the builtin
+// multi-view verifier.
 //
 // The paper verifies only the inter-community bridges and trusts the
-// strongest pairs (Sec. III-A to III-C): the top-k edges that form the
-// communities, the intra-community edges of the skeleton and the leaf
-// edges. In a street of identical facades an image's strongest pair can be
-// a doppelganger, and a trusted doppelganger folds the model as surely as a
-// bridge. Here the hierarchy is built (graph/hierarchy.h, the verifier
-// scoring the bridges lazily as in Algorithm 1), then every trusted edge it
-// uses is scored too; the ones below the threshold are removed from the
-// graph and the hierarchy is rebuilt, until no trusted edge fails (each pair
-// is scored once over all rounds). The verifier also reports which inliers
-// of each used edge agree with the geometry it accepted: the reconstruction
-// uses only those.
+// strongest pairs (Sec. III-A to III-C). Here the hierarchy is built with
+// its trusted edges judged too (graph/trusted_edges.h), then support edges
+// are added, and the verifier reports which inliers of each used edge agree
+// with the geometry it accepted: the reconstruction uses only those.
 #pragma once
 
 #include <unordered_map>
 #include <vector>
 
 #include "hisfm/graph/hierarchy.h"
+#include "hisfm/graph/trusted_edges.h"
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/verify/multiview_verifier.h"
 
 namespace hisfm {
 
 struct VerifiedHierarchyOptions {
-  /// Rebuilds at most this many times; trusted edges still failing after
-  /// the last round are kept and counted in
-  /// VerifiedHierarchy::num_unresolved.
-  int max_rounds = 8;
+  /// How the trusted edges are judged (graph/trusted_edges.h); with this
+  /// verifier only a pair its edge test judged (PairFeatures::Speaks) can be
+  /// rejected.
+  TrustedEdgeOptions trusted_edges;
   /// Replace each used edge's inliers by those consistent with the geometry
   /// its test accepted.
   bool clean_inliers = true;
@@ -52,15 +47,6 @@ struct VerifiedHierarchyOptions {
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
-};
-
-/// A trusted edge the verifier rejected.
-struct RejectedTrustedEdge {
-  ImagePair pair;
-  uint32_t weight = 0;
-  double score = 0;
-  /// Build round in which it was rejected (0-based).
-  int round = 0;
 };
 
 struct VerifiedHierarchy {
@@ -98,11 +84,6 @@ void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
                      int count, double threshold, Hierarchy* hierarchy,
                      std::vector<ViewGraphEdge>* reserve = nullptr,
                      double reserve_threshold = 1.0);
-
-/// The edges of `hierarchy` that the paper trusts without verification:
-/// the communities' top-k edges, the skeleton's intra-community edges and
-/// the leaf edges (sorted, unique).
-std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy);
 
 /// Builds the hierarchy of `graph` with `verifier` scoring bridges (against
 /// the skeleton's verify_threshold) and trusted edges (against

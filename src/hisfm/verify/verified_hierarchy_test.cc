@@ -24,7 +24,7 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
                              const VerifiedHierarchyOptions& options,
                              const VerifiedHierarchy& v) {
   EXPECT_GE(v.rounds, 1);
-  EXPECT_LE(v.rounds, options.max_rounds);
+  EXPECT_LE(v.rounds, options.trusted_edges.max_rounds);
   EXPECT_EQ(v.graph.Images(), input.Images());
   const std::vector<ImagePair> edges = v.hierarchy.Edges();
   EXPECT_TRUE(std::is_sorted(edges.begin(), edges.end()));
@@ -34,7 +34,7 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
     // Rejected trusted edges are gone from the final graph and hierarchy.
     EXPECT_EQ(v.graph.Weight(r.pair.image_id1, r.pair.image_id2), 0u);
     EXPECT_FALSE(Contains(edges, r.pair));
-    EXPECT_LT(r.score, options.trusted_threshold);
+    EXPECT_LT(r.score, options.trusted_edges.threshold);
     EXPECT_DOUBLE_EQ(r.score, verifier.ScoreOf(r.pair));
     EXPECT_EQ(r.weight, input.Weight(r.pair.image_id1, r.pair.image_id2));
     // Each rejection is followed by a rebuild.
@@ -50,10 +50,10 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
   size_t failing = 0;
   for (const ImagePair& p : TrustedEdges(v.hierarchy)) {
     EXPECT_GT(v.graph.Weight(p.image_id1, p.image_id2), 0u);
-    failing += verifier.ScoreOf(p) < options.trusted_threshold;
+    failing += verifier.ScoreOf(p) < options.trusted_edges.threshold;
   }
   EXPECT_EQ(failing, v.num_unresolved);
-  if (v.rounds < options.max_rounds) {
+  if (v.rounds < options.trusted_edges.max_rounds) {
     EXPECT_EQ(v.num_unresolved, 0u);
   }
   // Support edges: at most support_edges per image of each end's strongest,
@@ -147,7 +147,7 @@ TEST(VerifiedHierarchy, StricterThresholdsAndRoundLimits) {
   street_test::Opened street(1, 16);
   MultiViewVerifier verifier(street.db, street.graph);
   VerifiedHierarchyOptions options;
-  options.trusted_threshold = 0.8;
+  options.trusted_edges.threshold = 0.8;
   const VerifiedHierarchy v =
       BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), options);
   ExpectVerifiedHierarchy(street.graph, verifier, options, v);
@@ -162,7 +162,7 @@ TEST(VerifiedHierarchy, StricterThresholdsAndRoundLimits) {
 
   // One round: the failing trusted edges are kept and counted.
   VerifiedHierarchyOptions one = options;
-  one.max_rounds = 1;
+  one.trusted_edges.max_rounds = 1;
   const VerifiedHierarchy v1 =
       BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), one);
   ExpectVerifiedHierarchy(street.graph, verifier, one, v1);
@@ -173,7 +173,7 @@ TEST(VerifiedHierarchy, StricterThresholdsAndRoundLimits) {
 
   // A trusted threshold of 0 rejects nothing.
   VerifiedHierarchyOptions none = options;
-  none.trusted_threshold = 0;
+  none.trusted_edges.threshold = 0;
   const VerifiedHierarchy v0 =
       BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), none);
   ExpectVerifiedHierarchy(street.graph, verifier, none, v0);
@@ -265,18 +265,18 @@ TEST(VerifiedHierarchyOptions, CheckRejectsOutOfRangeValues) {
     modify(o);
     EXPECT_THROW(o.Check(), Error);
   };
-  expect_throw([](VerifiedHierarchyOptions& o) { o.max_rounds = 0; });
-  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_threshold = -0.1; });
-  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_threshold = 1.1; });
+  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_edges.max_rounds = 0; });
+  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_edges.threshold = -0.1; });
+  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_edges.threshold = 1.1; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_edges = -1; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_threshold = -0.5; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_threshold = 2; });
   // The boundaries are valid.
   VerifiedHierarchyOptions o;
-  o.trusted_threshold = 1;
+  o.trusted_edges.threshold = 1;
   o.support_threshold = 0;
   o.support_edges = 0;
-  o.max_rounds = 1;
+  o.trusted_edges.max_rounds = 1;
   EXPECT_NO_THROW(o.Check());
 }
 
@@ -288,7 +288,7 @@ TEST(VerifiedHierarchyOptions, BuildRefusesInvalidOptions) {
   const ViewGraph graph = ReadViewGraph(db, 15);
   MultiViewVerifier verifier(db, graph);
   VerifiedHierarchyOptions options;
-  options.max_rounds = 0;
+  options.trusted_edges.max_rounds = 0;
   EXPECT_THROW(
       BuildVerifiedHierarchy(graph, verifier, HierarchyOptions(), options),
       Error);

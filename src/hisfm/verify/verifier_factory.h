@@ -26,9 +26,16 @@ struct VerifierOptions {
   std::string verifier = "builtin";
   /// Pairs per call of a command verifier.
   int command_batch_size = 32;
+  /// With a verifier other than "builtin", score the edges the paper
+  /// trusts (community, intra-community and leaf edges) too and rebuild
+  /// the hierarchy without the rejected ones (graph/trusted_edges.h, with
+  /// verified_hierarchy.trusted_edges). The builtin verifier always does.
+  bool judge_trusted_edges = true;
   /// Options of the builtin (multi-view) disambiguator.
   MultiViewVerifierOptions multiview;
-  /// How the builtin verifier checks the trusted edges and cleans inliers.
+  /// How the builtin verifier checks the trusted edges and cleans inliers;
+  /// its trusted_edges options serve the other verifiers too
+  /// (judge_trusted_edges).
   VerifiedHierarchyOptions verified_hierarchy;
   /// With the builtin verifier, the hierarchy ranks pairs by burstiness-
   /// weighted support (match_burstiness.h) instead of inlier count:
@@ -47,6 +54,9 @@ struct VerifierOptions {
   void Check() const;
   /// filter_pairs and the "context" verifier.
   bool UsesPairFilter() const { return filter_pairs && verifier == "context"; }
+  /// The verifier reads the communities (VerifierContext::communities), so
+  /// it is created anew for every hierarchy built.
+  bool UsesCommunities() const { return verifier == "context"; }
   /// The builtin multi-view verifier, which builds the hierarchy itself
   /// (verified_hierarchy.h).
   bool IsMultiView() const { return verifier == "builtin"; }
