@@ -350,6 +350,25 @@ TEST(HierarchicalMapper, DisconnectedDatabaseGivesOneModelPerComponent) {
   EXPECT_TRUE(e1.correct) << e1.verdict_reason;
 }
 
+// Writes the instance `seed` of the synthetic family `scene` with
+// `num_images` views (randomized family parameters) into tmp/scene and
+// returns the mapper's input paths, output in tmp/out.
+MapperPaths SyntheticFamilyInstance(const TempDir& tmp,
+                                    const std::string& scene, int num_images,
+                                    uint32_t seed) {
+  SynthOptions synth;
+  synth.scene = scene;
+  synth.num_images = num_images;
+  synth.seed = seed;
+  synth.family.randomize = true;
+  WriteSyntheticDataset(synth, tmp / "scene");
+  MapperPaths paths;
+  paths.database_path = tmp / "scene/database.db";
+  paths.image_path = tmp / "scene/images";
+  paths.output_path = tmp / "out";
+  return paths;
+}
+
 // A street crossing (held-out seed of the synthetic families) whose scaffold
 // colmap splits where a weak true bridge joins the streets, and whose attach
 // stage enters a stretch of street through a single image that has too few
@@ -358,16 +377,8 @@ TEST(HierarchicalMapper, DisconnectedDatabaseGivesOneModelPerComponent) {
 TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  SynthOptions synth;
-  synth.scene = "crossing_streets";
-  synth.num_images = 150;
-  synth.seed = 6;
-  synth.family.randomize = true;
-  WriteSyntheticDataset(synth, tmp / "scene");
-  MapperPaths paths;
-  paths.database_path = tmp / "scene/database.db";
-  paths.image_path = tmp / "scene/images";
-  paths.output_path = tmp / "out";
+  const MapperPaths paths =
+      SyntheticFamilyInstance(tmp, "crossing_streets", 150, 6);
   const nlohmann::json summary =
       RunHierarchicalMapper(paths, HierarchicalMapperOptions());
   ASSERT_EQ(summary["models"].size(), 1u);
@@ -410,17 +421,9 @@ void WriteOracleScores(const std::string& labels_path,
 TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  SynthOptions synth;
-  synth.scene = "facade_street";
-  synth.num_images = 40;
-  synth.seed = 7;
-  synth.family.randomize = true;
-  WriteSyntheticDataset(synth, tmp / "scene");
+  MapperPaths paths = SyntheticFamilyInstance(tmp, "facade_street", 40, 7);
   WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
   const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
-  MapperPaths paths;
-  paths.database_path = tmp / "scene/database.db";
-  paths.image_path = tmp / "scene/images";
   HierarchicalMapperOptions options;
   options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
 

@@ -75,7 +75,7 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     const VerifiedHierarchyOptions& options) {
   options.Check();
   VerifiedHierarchy out;
-  JudgedHierarchy judged = BuildHierarchyJudgingTrustedEdges(
+  static_cast<JudgedHierarchy&>(out) = BuildHierarchyJudgingTrustedEdges(
       graph,
       [&verifier](const Communities&) -> std::unique_ptr<BridgeScorer> {
         return std::make_unique<BorrowedScorer>(&verifier);
@@ -86,11 +86,6 @@ VerifiedHierarchy BuildVerifiedHierarchy(
       [&verifier](const ImagePair& pair) {
         return verifier.Features(pair).Speaks();
       });
-  out.hierarchy = std::move(judged.hierarchy);
-  out.graph = std::move(judged.graph);
-  out.rejected = std::move(judged.rejected);
-  out.rounds = judged.rounds;
-  out.num_unresolved = judged.num_unresolved;
   AddSupportEdges(out.graph, verifier, options.support_edges,
                   options.support_threshold, &out.hierarchy,
                   &out.reserve_edges,

@@ -49,16 +49,9 @@ struct VerifiedHierarchyOptions {
   void Check() const;
 };
 
-struct VerifiedHierarchy {
-  Hierarchy hierarchy;
-  /// The graph the final hierarchy was built on (rejected trusted edges
-  /// removed).
-  ViewGraph graph;
-  std::vector<RejectedTrustedEdge> rejected;
-  /// Build rounds.
-  int rounds = 0;
-  /// Trusted edges below the threshold kept after the last round.
-  size_t num_unresolved = 0;
+/// The judged hierarchy (hierarchy, graph, rejected trusted edges, rounds)
+/// and what the builtin verifier adds to it.
+struct VerifiedHierarchy : JudgedHierarchy {
   /// Each image's strongest pairs (up to support_edges) inside its
   /// component that score at least the bridges' threshold
   /// (SkeletonOptions::verify_threshold) but below support_threshold: not
