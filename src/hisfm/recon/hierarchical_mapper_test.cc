@@ -174,14 +174,17 @@ TEST(HierarchicalMapper, FacadeStreet60IsCorrectWhereColmapFolds) {
   ExpectCorrect("synthetic/facade_street_60", 60, "ground_truth");
 }
 
-// Writes the synthetic scene `scene` (num_images, seed) to tmp/scene; the
+// Writes the synthetic scene `scene` (num_images, seed; a family's
+// parameters drawn from the seed if `randomize_family`) to tmp/scene; the
 // mapper's paths for it, output to tmp/out.
 MapperPaths SynthScene(const TempDir& tmp, const std::string& scene,
-                       int num_images, uint32_t seed) {
+                       int num_images, uint32_t seed,
+                       bool randomize_family = false) {
   SynthOptions synth;
   synth.scene = scene;
   synth.num_images = num_images;
   synth.seed = seed;
+  synth.family.randomize = randomize_family;
   WriteSyntheticDataset(synth, tmp / "scene");
   MapperPaths paths;
   paths.database_path = tmp / "scene/database.db";
@@ -350,25 +353,6 @@ TEST(HierarchicalMapper, DisconnectedDatabaseGivesOneModelPerComponent) {
   EXPECT_TRUE(e1.correct) << e1.verdict_reason;
 }
 
-// Writes the instance `seed` of the synthetic family `scene` with
-// `num_images` views (randomized family parameters) into tmp/scene and
-// returns the mapper's input paths, output in tmp/out.
-MapperPaths SyntheticFamilyInstance(const TempDir& tmp,
-                                    const std::string& scene, int num_images,
-                                    uint32_t seed) {
-  SynthOptions synth;
-  synth.scene = scene;
-  synth.num_images = num_images;
-  synth.seed = seed;
-  synth.family.randomize = true;
-  WriteSyntheticDataset(synth, tmp / "scene");
-  MapperPaths paths;
-  paths.database_path = tmp / "scene/database.db";
-  paths.image_path = tmp / "scene/images";
-  paths.output_path = tmp / "out";
-  return paths;
-}
-
 // A street crossing (held-out seed of the synthetic families) whose scaffold
 // colmap splits where a weak true bridge joins the streets, and whose attach
 // stage enters a stretch of street through a single image that has too few
@@ -378,7 +362,7 @@ TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
   const MapperPaths paths =
-      SyntheticFamilyInstance(tmp, "crossing_streets", 150, 6);
+      SynthScene(tmp, "crossing_streets", 150, 6, true);
   const nlohmann::json summary =
       RunHierarchicalMapper(paths, HierarchicalMapperOptions());
   ASSERT_EQ(summary["models"].size(), 1u);
@@ -421,7 +405,7 @@ void WriteOracleScores(const std::string& labels_path,
 TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  MapperPaths paths = SyntheticFamilyInstance(tmp, "facade_street", 40, 7);
+  MapperPaths paths = SynthScene(tmp, "facade_street", 40, 7, true);
   WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
   const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
   HierarchicalMapperOptions options;
