@@ -125,6 +125,7 @@ JudgedHierarchy BuildHierarchyJudgingTrustedEdges(
                     failing.size(), trusted.size());
   }
   out.num_scored = judged.size();
+  out.num_pairs_scored = scores.size();
   return out;
 }
 

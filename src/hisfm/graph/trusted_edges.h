@@ -56,6 +56,9 @@ struct JudgedHierarchy {
   size_t num_unresolved = 0;
   /// Trusted edges scored over all rounds (distinct pairs).
   size_t num_scored = 0;
+  /// Pairs the scorer was asked about over all rounds, bridges and trusted
+  /// edges (distinct pairs; each was asked once).
+  size_t num_pairs_scored = 0;
 };
 
 /// The edges of `hierarchy` that the paper trusts without verification:

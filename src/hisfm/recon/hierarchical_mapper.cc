@@ -200,10 +200,13 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
       in.verification = {{"rounds", judged.rounds},
                       {"rejected_trusted_edges", judged.rejected.size()},
                       {"unresolved_trusted_edges", judged.num_unresolved},
-                      {"trusted_edges_scored", judged.num_scored}};
-      HISFM_LOG_INFO("trusted edges: {} scored, {} rejected in {} round(s)",
-                     judged.num_scored, judged.rejected.size(),
-                     judged.rounds);
+                      {"trusted_edges_scored", judged.num_scored},
+                      {"pairs_scored", judged.num_pairs_scored}};
+      HISFM_LOG_INFO(
+          "trusted edges: {} scored, {} rejected in {} round(s); {} pairs "
+          "scored in all",
+          judged.num_scored, judged.rejected.size(), judged.rounds,
+          judged.num_pairs_scored);
     } else {
       in.hierarchy = BuildHierarchy(in.graph, make_scorer, options.hierarchy);
     }

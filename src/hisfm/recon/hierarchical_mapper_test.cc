@@ -423,6 +423,8 @@ TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
   EXPECT_GT(summary["verification"]["rejected_trusted_edges"].get<size_t>(), 0u);
   EXPECT_GT(summary["verification"]["trusted_edges_scored"].get<size_t>(), 0u);
+  EXPECT_GE(summary["verification"]["pairs_scored"].get<size_t>(),
+            summary["verification"]["trusted_edges_scored"].get<size_t>());
   EXPECT_EQ(summary["registered_images"], 40);
   const PoseEvaluation judged =
       EvaluateModel(ReadModel(tmp / "judged/0"), truth, {});
