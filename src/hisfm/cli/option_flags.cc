@@ -81,15 +81,19 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "trusted edges too, not only the bridges");
   visit("--HiSfM.support_edges",
         o->verifier.verified_hierarchy.support_edges,
-        "builtin verifier: each image's strongest pairs that pass "
-        "--HiSfM.support_threshold also serve the reconstruction");
+        "builtin and plug-in (scores:, command:) verifiers: each image's "
+        "strongest pairs that pass --HiSfM.support_threshold also serve the "
+        "reconstruction");
   visit("--HiSfM.support_threshold",
         o->verifier.verified_hierarchy.support_threshold,
-        "builtin verifier: minimum score of a support edge");
+        "builtin and plug-in verifiers: minimum score of a support edge");
   visit("--HiSfM.clean_inliers",
         o->verifier.verified_hierarchy.clean_inliers,
         "builtin verifier: reconstruct each edge from the inliers "
         "that agree with the geometry its test accepted");
+  visit("--HiSfM.clean_plugin_inliers", o->verifier.clean_plugin_inliers,
+        "plug-in verifiers: reconstruct each edge from the inliers that "
+        "agree with the geometry the builtin edge test accepts");
   visit("--HiSfM.burstiness_weights",
         o->verifier.burstiness_weights,
         "builtin verifier: rank pairs by burstiness-weighted support "

@@ -107,6 +107,41 @@ struct LoadedInput {
   std::vector<ViewGraphEdge> reserve_edges;
 };
 
+// With a plug-in verifier (VerifierOptions::IsPlugIn), what the builtin
+// verifier gives its own hierarchy (verified_hierarchy.h): each image's
+// strongest pairs inside its component that `scorer` scores at least
+// support_threshold join the edges the component is reconstructed from
+// (those scoring at least the bridges' threshold but less are kept in
+// reserve); with clean_plugin_inliers, every edge used keeps only the
+// inliers that agree with the geometry the builtin edge test accepts for it.
+// The plug-in's verdicts stand: the builtin's score is not used.
+void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
+                       const HierarchicalMapperOptions& options,
+                       LoadedInput* in) {
+  const VerifiedHierarchyOptions& o = options.verifier.verified_hierarchy;
+  const size_t num_scored = AddSupportEdges(
+      in->graph, scorer, o.support_edges, o.support_threshold, &in->hierarchy,
+      &in->reserve_edges, options.hierarchy.skeleton.verify_threshold);
+  size_t before = 0;
+  size_t after = 0;
+  if (options.verifier.clean_plugin_inliers) {
+    MultiViewVerifier geometry(db, in->graph, options.verifier.multiview);
+    std::vector<ImagePair> used = in->hierarchy.Edges();
+    for (const ViewGraphEdge& e : in->reserve_edges) used.push_back(e.pair);
+    CleanInliers(used, geometry, &in->inliers, &before, &after);
+  }
+  in->verification["support_edges_scored"] = num_scored;
+  in->verification["support_edges"] = in->hierarchy.support_edges.size();
+  in->verification["reserve_edges"] = in->reserve_edges.size();
+  in->verification["inliers_before_cleaning"] = before;
+  in->verification["inliers_after_cleaning"] = after;
+  HISFM_LOG_INFO(
+      "support edges: {} pairs scored, {} taken, {} in reserve; {} of {} "
+      "inliers kept on the edges used",
+      num_scored, in->hierarchy.support_edges.size(), in->reserve_edges.size(),
+      after, before);
+}
+
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
                                   const std::string& image_path,
                                   const HierarchicalMapperOptions& options) {
@@ -209,6 +244,11 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
           judged.num_pairs_scored);
     } else {
       in.hierarchy = BuildHierarchy(in.graph, make_scorer, options.hierarchy);
+    }
+    if (options.verifier.IsPlugIn()) {
+      const std::unique_ptr<BridgeScorer> scorer =
+          make_scorer(in.hierarchy.communities);
+      AddPlugInGeometry(db, *scorer, options, &in);
     }
   }
   in.graph_seconds = timer.ElapsedSeconds();

@@ -431,6 +431,46 @@ TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
   EXPECT_TRUE(judged.correct) << judged.verdict_reason;
 }
 
+// A loop around a block, 150 images: the paper's hierarchy (trusted edges
+// judged too) is one chain of views, and the pairs that judge them right
+// still leave it drifting past 5 degrees; the support edges that the
+// plug-in scores, as the builtin verifier adds them to its own hierarchy,
+// hold the chain together.
+TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  MapperPaths paths = SynthScene(tmp, "block_loop", 150, 5, true);
+  WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
+  const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
+  HierarchicalMapperOptions options;
+  options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
+
+  options.verifier.verified_hierarchy.support_edges = 0;
+  paths.output_path = tmp / "paper";
+  const nlohmann::json paper = RunHierarchicalMapper(paths, options);
+  EXPECT_EQ(paper["verification"]["support_edges"].get<size_t>(), 0u);
+  const PoseEvaluation without =
+      EvaluateModel(ReadModel(tmp / "paper/0"), truth, {});
+
+  options.verifier.verified_hierarchy.support_edges = 3;
+  paths.output_path = tmp / "supported";
+  const nlohmann::json supported = RunHierarchicalMapper(paths, options);
+  const nlohmann::json& v = supported["verification"];
+  EXPECT_GT(v["support_edges"].get<size_t>(), 0u);
+  EXPECT_GE(v["support_edges_scored"].get<size_t>(),
+            v["support_edges"].get<size_t>() + v["reserve_edges"].get<size_t>());
+  EXPECT_EQ(v["inliers_before_cleaning"].get<size_t>(), 0u)
+      << "plug-in inliers are not cleaned by default";
+  EXPECT_EQ(supported["hierarchy_edges"].get<size_t>(),
+            paper["hierarchy_edges"].get<size_t>() +
+                v["support_edges"].get<size_t>());
+  EXPECT_EQ(supported["registered_images"], 150);
+  const PoseEvaluation with =
+      EvaluateModel(ReadModel(tmp / "supported/0"), truth, {});
+  EXPECT_TRUE(with.correct) << with.verdict_reason;
+  EXPECT_GT(with.verdict_pair_fraction, without.verdict_pair_fraction);
+}
+
 TEST(ExhaustiveFilter, DropsRejectedPairsAndKeepsTheInput) {
   const std::string db = SharedDataPath("yan2017/cup", "database.db");
   if (db.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();

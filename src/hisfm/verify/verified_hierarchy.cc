@@ -16,11 +16,12 @@ void VerifiedHierarchyOptions::Check() const {
                      "in [0, 1]");
 }
 
-void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
+size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
                      int count, double threshold, Hierarchy* hierarchy,
                      std::vector<ViewGraphEdge>* reserve,
                      double reserve_threshold) {
-  if (count <= 0) return;
+  if (count <= 0) return 0;
+  size_t num_scored = 0;
   std::unordered_map<ImageId, size_t> component_of;
   for (size_t c = 0; c < hierarchy->components.size(); ++c) {
     for (const ImageId id : hierarchy->components[c].images) {
@@ -43,6 +44,7 @@ void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
         continue;
       }
       const double score = verifier.Score({edge.pair}).front();
+      ++num_scored;
       if (score < threshold) {
         if (reserve && score >= reserve_threshold) {
           added.insert(edge.pair);
@@ -67,6 +69,7 @@ void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
       }
     }
   }
+  return num_scored;
 }
 
 VerifiedHierarchy BuildVerifiedHierarchy(
@@ -93,15 +96,24 @@ VerifiedHierarchy BuildVerifiedHierarchy(
   if (options.clean_inliers) {
     std::vector<ImagePair> used = out.hierarchy.Edges();
     for (const ViewGraphEdge& e : out.reserve_edges) used.push_back(e.pair);
-    for (const ImagePair& pair : used) {
-      std::vector<FeatureMatch> inliers = verifier.ConsistentInliers(pair);
-      out.num_inliers_before +=
-          verifier.cache().Pair(pair.image_id1, pair.image_id2)->matches.size();
-      out.num_inliers_after += inliers.size();
-      out.inliers.emplace(pair, std::move(inliers));
-    }
+    CleanInliers(used, verifier, &out.inliers, &out.num_inliers_before,
+                 &out.num_inliers_after);
   }
   return out;
+}
+
+void CleanInliers(
+    const std::vector<ImagePair>& pairs, MultiViewVerifier& verifier,
+    std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>*
+        inliers,
+    size_t* before, size_t* after) {
+  for (const ImagePair& pair : pairs) {
+    std::vector<FeatureMatch> kept = verifier.ConsistentInliers(pair);
+    *before +=
+        verifier.cache().Pair(pair.image_id1, pair.image_id2)->matches.size();
+    *after += kept.size();
+    inliers->insert_or_assign(pair, std::move(kept));
+  }
 }
 
 }  // namespace hisfm

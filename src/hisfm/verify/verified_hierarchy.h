@@ -73,10 +73,21 @@ struct VerifiedHierarchy : JudgedHierarchy {
 /// VerifiedHierarchyOptions::support_edges). If `reserve` is given, the
 /// pairs among them scoring at least `reserve_threshold` but below
 /// `threshold` are appended to it instead (VerifiedHierarchy::reserve_edges).
-void AddSupportEdges(const ViewGraph& graph, MultiViewVerifier& verifier,
+/// Returns how many pairs `verifier` was asked to score.
+size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
                      int count, double threshold, Hierarchy* hierarchy,
                      std::vector<ViewGraphEdge>* reserve = nullptr,
                      double reserve_threshold = 1.0);
+
+/// The inliers of each pair of `pairs` that agree with the geometry the
+/// builtin edge test accepts for it (MultiViewVerifier::ConsistentInliers),
+/// by pair, in `inliers`; adds the counts before and after to `before` and
+/// `after`. A pair the test cannot judge keeps all its inliers.
+void CleanInliers(
+    const std::vector<ImagePair>& pairs, MultiViewVerifier& verifier,
+    std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>*
+        inliers,
+    size_t* before, size_t* after);
 
 /// Builds the hierarchy of `graph` with `verifier` scoring bridges (against
 /// the skeleton's verify_threshold) and trusted edges (against

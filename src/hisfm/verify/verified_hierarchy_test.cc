@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <map>
 #include <set>
+#include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "hisfm/util/error.h"
@@ -241,6 +243,80 @@ TEST(VerifiedHierarchy, AddSupportEdgesRespectsCountAndThreshold) {
     EXPECT_TRUE(std::is_sorted(c.edges.begin(), c.edges.end()));
     EXPECT_TRUE(std::is_sorted(c.skeleton_edges.begin(), c.skeleton_edges.end()));
   }
+}
+
+// A plug-in verifier's scores: every pair scores by its images' id
+// difference (1 or 2: 0.9, 3: 0.6, otherwise 0.1).
+class DistanceScorer : public BridgeScorer {
+ public:
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    std::vector<double> out;
+    for (const ImagePair& p : pairs) {
+      const ImageId d = p.image_id2 - p.image_id1;
+      out.push_back(d <= 2 ? 0.9 : d == 3 ? 0.6 : 0.1);
+    }
+    return out;
+  }
+  std::string Name() const override { return "distance"; }
+};
+
+TEST(VerifiedHierarchy, AddSupportEdgesTakesAnyScorer) {
+  street_test::Opened street(2, 10);
+  DistanceScorer scorer;
+  const Hierarchy base =
+      BuildHierarchy(street.graph, &scorer, HierarchyOptions());
+  ASSERT_FALSE(base.components.empty());
+  Hierarchy h = base;
+  std::vector<ViewGraphEdge> reserve;
+  AddSupportEdges(street.graph, scorer, 3, 0.8, &h, &reserve, 0.5);
+  const std::vector<ImagePair> base_edges = base.Edges();
+  for (const ViewGraphEdge& e : h.support_edges) {
+    EXPECT_LE(e.pair.image_id2 - e.pair.image_id1, 2u) << "scores 0.9";
+    EXPECT_FALSE(Contains(base_edges, e.pair));
+  }
+  for (const ViewGraphEdge& e : reserve) {
+    EXPECT_EQ(e.pair.image_id2 - e.pair.image_id1, 3u) << "scores 0.6";
+    EXPECT_FALSE(Contains(h.Edges(), e.pair)) << "reserve edges are not used";
+  }
+  EXPECT_FALSE(h.support_edges.empty());
+}
+
+TEST(VerifiedHierarchy, CleanInliersKeepsASubsetOfEachPairsMatches) {
+  street_test::Opened street(2, 10);
+  MultiViewVerifier verifier(street.db, street.graph);
+  std::vector<ImagePair> pairs;
+  for (const ViewGraphEdge& e : street.graph.Edges()) pairs.push_back(e.pair);
+  std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
+      inliers;
+  size_t before = 0;
+  size_t after = 0;
+  CleanInliers(pairs, verifier, &inliers, &before, &after);
+  ASSERT_EQ(inliers.size(), pairs.size());
+  size_t total_before = 0;
+  size_t total_after = 0;
+  size_t judged_and_cut = 0;
+  for (const ImagePair& p : pairs) {
+    const std::vector<FeatureMatch>& all =
+        verifier.cache().Pair(p.image_id1, p.image_id2)->matches;
+    const std::vector<FeatureMatch>& kept = inliers.at(p);
+    total_before += all.size();
+    total_after += kept.size();
+    EXPECT_LE(kept.size(), all.size());
+    for (const FeatureMatch& m : kept) {
+      EXPECT_NE(std::find_if(all.begin(), all.end(),
+                             [&](const FeatureMatch& a) {
+                               return a.idx1 == m.idx1 &&
+                                      a.idx2 == m.idx2;
+                             }),
+                all.end());
+    }
+    judged_and_cut += kept.size() < all.size();
+  }
+  EXPECT_EQ(before, total_before);
+  EXPECT_EQ(after, total_after);
+  // The street's doppelganger pairs lose the matches of the wrong geometry.
+  EXPECT_GT(judged_and_cut, 0u);
+  EXPECT_LT(after, before);
 }
 
 TEST(VerifiedHierarchy, TrustedEdgesAreTopKIntraAndLeafEdges) {

@@ -31,11 +31,19 @@ struct VerifierOptions {
   /// the hierarchy without the rejected ones (graph/trusted_edges.h, with
   /// verified_hierarchy.trusted_edges). The builtin verifier always does.
   bool judge_trusted_edges = true;
+  /// With a plug-in verifier (IsPlugIn), reconstruct each edge used from
+  /// the inliers that agree with the geometry the builtin edge test accepts
+  /// for it (verified_hierarchy.h CleanInliers), as the builtin verifier
+  /// does. Off by default: on chains of views it can leave consecutive
+  /// edges too few shared matches to register across (decisions.md,
+  /// 2026-12-03, plug-in geometry).
+  bool clean_plugin_inliers = false;
   /// Options of the builtin (multi-view) disambiguator.
   MultiViewVerifierOptions multiview;
-  /// How the builtin verifier checks the trusted edges and cleans inliers;
-  /// its trusted_edges options serve the other verifiers too
-  /// (judge_trusted_edges).
+  /// How the builtin verifier checks the trusted edges, adds support edges
+  /// and cleans inliers; its trusted_edges options serve the other
+  /// verifiers too (judge_trusted_edges), its support edges the plug-ins
+  /// (IsPlugIn).
   VerifiedHierarchyOptions verified_hierarchy;
   /// With the builtin verifier, the hierarchy ranks pairs by burstiness-
   /// weighted support (match_burstiness.h) instead of inlier count:
@@ -60,6 +68,14 @@ struct VerifierOptions {
   /// The builtin multi-view verifier, which builds the hierarchy itself
   /// (verified_hierarchy.h).
   bool IsMultiView() const { return verifier == "builtin"; }
+  /// A plug-in verifier (scores:FILE or command:CMD): it judges the pairs,
+  /// and gets the support edges the builtin verifier adds to its own
+  /// hierarchy (verified_hierarchy.support_edges, scored by the plug-in;
+  /// cleaned inliers with clean_plugin_inliers).
+  bool IsPlugIn() const {
+    return verifier.rfind("scores:", 0) == 0 ||
+           verifier.rfind("command:", 0) == 0;
+  }
 };
 
 /// Creates the verifier; throws hisfm::Error for an unknown kind or a bad
