@@ -398,6 +398,30 @@ void WriteOracleScores(const std::string& labels_path,
   ASSERT_GT(num_pairs, 0u) << labels_path;
 }
 
+// A randomized instance of a synthetic family in `tmp`, with mapper options
+// whose plug-in verifier is the oracle: each pair's true share of inliers.
+struct OracleScene {
+  OracleScene(const TempDir& tmp, const std::string& family, int num_images,
+              int seed)
+      : dir(tmp.path()), paths(SynthScene(tmp, family, num_images, seed, true)) {
+    WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
+    truth = ReadModel(tmp / "scene/ground_truth");
+    options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
+  }
+  /// Runs the mapper with `options` into DIR/name; returns its summary and
+  /// sets *evaluation to its model's against the truth.
+  nlohmann::json Run(const std::string& name, PoseEvaluation* evaluation) {
+    paths.output_path = (fs::path(dir) / name).string();
+    nlohmann::json summary = RunHierarchicalMapper(paths, options);
+    *evaluation = EvaluateModel(ReadModel(paths.output_path + "/0"), truth, {});
+    return summary;
+  }
+  std::string dir;
+  MapperPaths paths;
+  Reconstruction truth;
+  HierarchicalMapperOptions options;
+};
+
 // A 40-image repeated street (tuning seed of the synthetic families) whose
 // hierarchy trusts a doppelganger: with a perfect plug-in verifier that
 // judges the bridges only, the model folds; judging the trusted edges too
@@ -405,29 +429,20 @@ void WriteOracleScores(const std::string& labels_path,
 TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  MapperPaths paths = SynthScene(tmp, "facade_street", 40, 7, true);
-  WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
-  const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
-  HierarchicalMapperOptions options;
-  options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
-
-  options.verifier.judge_trusted_edges = false;
-  paths.output_path = tmp / "bridges_only";
-  RunHierarchicalMapper(paths, options);
-  const PoseEvaluation bridges_only =
-      EvaluateModel(ReadModel(tmp / "bridges_only/0"), truth, {});
+  OracleScene scene(tmp, "facade_street", 40, 7);
+  scene.options.verifier.judge_trusted_edges = false;
+  PoseEvaluation bridges_only;
+  scene.Run("bridges_only", &bridges_only);
   EXPECT_FALSE(bridges_only.correct) << "the premise: a trusted doppelganger";
 
-  options.verifier.judge_trusted_edges = true;
-  paths.output_path = tmp / "judged";
-  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  scene.options.verifier.judge_trusted_edges = true;
+  PoseEvaluation judged;
+  const nlohmann::json summary = scene.Run("judged", &judged);
   EXPECT_GT(summary["verification"]["rejected_trusted_edges"].get<size_t>(), 0u);
   EXPECT_GT(summary["verification"]["trusted_edges_scored"].get<size_t>(), 0u);
   EXPECT_GE(summary["verification"]["pairs_scored"].get<size_t>(),
             summary["verification"]["trusted_edges_scored"].get<size_t>());
   EXPECT_EQ(summary["registered_images"], 40);
-  const PoseEvaluation judged =
-      EvaluateModel(ReadModel(tmp / "judged/0"), truth, {});
   EXPECT_TRUE(judged.correct) << judged.verdict_reason;
 }
 
@@ -439,22 +454,15 @@ TEST(HierarchicalMapper, PlugInVerifierJudgesTheTrustedEdges) {
 TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
-  MapperPaths paths = SynthScene(tmp, "block_loop", 150, 5, true);
-  WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
-  const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
-  HierarchicalMapperOptions options;
-  options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
-
-  options.verifier.verified_hierarchy.support_edges = 0;
-  paths.output_path = tmp / "paper";
-  const nlohmann::json paper = RunHierarchicalMapper(paths, options);
+  OracleScene scene(tmp, "block_loop", 150, 5);
+  scene.options.verifier.verified_hierarchy.support_edges = 0;
+  PoseEvaluation without;
+  const nlohmann::json paper = scene.Run("paper", &without);
   EXPECT_EQ(paper["verification"]["support_edges"].get<size_t>(), 0u);
-  const PoseEvaluation without =
-      EvaluateModel(ReadModel(tmp / "paper/0"), truth, {});
 
-  options.verifier.verified_hierarchy.support_edges = 3;
-  paths.output_path = tmp / "supported";
-  const nlohmann::json supported = RunHierarchicalMapper(paths, options);
+  scene.options.verifier.verified_hierarchy.support_edges = 3;
+  PoseEvaluation with;
+  const nlohmann::json supported = scene.Run("supported", &with);
   const nlohmann::json& v = supported["verification"];
   EXPECT_GT(v["support_edges"].get<size_t>(), 0u);
   EXPECT_GE(v["support_edges_scored"].get<size_t>(),
@@ -465,8 +473,6 @@ TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
             paper["hierarchy_edges"].get<size_t>() +
                 v["support_edges"].get<size_t>());
   EXPECT_EQ(supported["registered_images"], 150);
-  const PoseEvaluation with =
-      EvaluateModel(ReadModel(tmp / "supported/0"), truth, {});
   EXPECT_TRUE(with.correct) << with.verdict_reason;
   EXPECT_GT(with.verdict_pair_fraction, without.verdict_pair_fraction);
 }
