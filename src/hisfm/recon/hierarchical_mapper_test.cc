@@ -403,7 +403,8 @@ void WriteOracleScores(const std::string& labels_path,
 struct OracleScene {
   OracleScene(const TempDir& tmp, const std::string& family, int num_images,
               int seed)
-      : dir(tmp.path()), paths(SynthScene(tmp, family, num_images, seed, true)) {
+      : dir(tmp.path()),
+        paths(SynthScene(tmp, family, num_images, seed, true)) {
     WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
     truth = ReadModel(tmp / "scene/ground_truth");
     options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
@@ -465,8 +466,9 @@ TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
   const nlohmann::json supported = scene.Run("supported", &with);
   const nlohmann::json& v = supported["verification"];
   EXPECT_GT(v["support_edges"].get<size_t>(), 0u);
-  EXPECT_GE(v["support_edges_scored"].get<size_t>(),
-            v["support_edges"].get<size_t>() + v["reserve_edges"].get<size_t>());
+  EXPECT_GE(
+      v["support_edges_scored"].get<size_t>(),
+      v["support_edges"].get<size_t>() + v["reserve_edges"].get<size_t>());
   EXPECT_EQ(v["inliers_before_cleaning"].get<size_t>(), 0u)
       << "plug-in inliers are not cleaned by default";
   EXPECT_EQ(supported["hierarchy_edges"].get<size_t>(),
