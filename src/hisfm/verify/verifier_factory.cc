@@ -26,6 +26,10 @@ void VerifierOptions::Check() const {
                      "': use builtin, none, scores:FILE or command:CMD"));
 }
 
+bool VerifierOptions::IsPlugIn() const {
+  return StartsWith(verifier, "scores:") || StartsWith(verifier, "command:");
+}
+
 std::unique_ptr<BridgeScorer> CreateVerifier(const VerifierOptions& options,
                                              const VerifierContext& context) {
   options.Check();

@@ -72,10 +72,7 @@ struct VerifierOptions {
   /// and gets the support edges the builtin verifier adds to its own
   /// hierarchy (verified_hierarchy.support_edges, scored by the plug-in;
   /// cleaned inliers with clean_plugin_inliers).
-  bool IsPlugIn() const {
-    return verifier.rfind("scores:", 0) == 0 ||
-           verifier.rfind("command:", 0) == 0;
-  }
+  bool IsPlugIn() const;
 };
 
 /// Creates the verifier; throws hisfm::Error for an unknown kind or a bad
