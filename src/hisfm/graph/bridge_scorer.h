@@ -3,7 +3,9 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "hisfm/util/types.h"
@@ -55,6 +57,33 @@ class BorrowedScorer : public BridgeScorer {
 
  private:
   BridgeScorer* scorer_;
+};
+
+/// Scores already known, by pair.
+using PairScores = std::unordered_map<ImagePair, double, ImagePairHash>;
+
+/// Forwards to a scorer and remembers every score in a map the caller owns,
+/// so that no pair is asked of the scorer twice while the map lives (across
+/// rebuilds of the hierarchy and the stages after it). Throws hisfm::Error
+/// if the scorer returns the wrong number of scores.
+class MemoScorer : public BridgeScorer {
+ public:
+  /// `scorer` is shared, `scores` must outlive this object.
+  MemoScorer(std::shared_ptr<BridgeScorer> scorer, PairScores* scores)
+      : scorer_(std::move(scorer)), scores_(scores) {}
+  std::string Name() const override { return scorer_->Name(); }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
+  size_t PreferredBatchSize() const override {
+    return scorer_->PreferredBatchSize();
+  }
+  bool IsFree() const override { return scorer_->IsFree(); }
+  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
+    return scorer_->CycleRotationErrorDeg(cycle);
+  }
+
+ private:
+  std::shared_ptr<BridgeScorer> scorer_;
+  PairScores* scores_;
 };
 
 /// The default of the foundation: accepts every bridge with score 1.

@@ -2,7 +2,6 @@
 
 #include <memory>
 #include <set>
-#include <unordered_map>
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/logging.h"
@@ -27,52 +26,6 @@ std::vector<ImagePair> TrustedEdges(const Hierarchy& hierarchy) {
   return {edges.begin(), edges.end()};
 }
 
-namespace {
-
-// Forwards to the round's scorer and remembers every score, so that no pair
-// is scored twice over the rounds (each round creates its scorer anew).
-class RememberingScorer : public BridgeScorer {
- public:
-  RememberingScorer(
-      std::shared_ptr<BridgeScorer> scorer,
-      std::unordered_map<ImagePair, double, ImagePairHash>* scores)
-      : scorer_(std::move(scorer)), scores_(scores) {}
-
-  std::string Name() const override { return scorer_->Name(); }
-  size_t PreferredBatchSize() const override {
-    return scorer_->PreferredBatchSize();
-  }
-  bool IsFree() const override { return scorer_->IsFree(); }
-  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
-    return scorer_->CycleRotationErrorDeg(cycle);
-  }
-  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
-    std::vector<ImagePair> missing;
-    for (const ImagePair& p : pairs) {
-      if (!scores_->count(p)) missing.push_back(p);
-    }
-    if (!missing.empty()) {
-      const std::vector<double> s = scorer_->Score(missing);
-      ThrowUnless(s.size() == missing.size(),
-                  StrCat("verifier '", Name(), "' returned ", s.size(),
-                         " scores for ", missing.size(), " pairs"));
-      for (size_t i = 0; i < missing.size(); ++i) {
-        scores_->emplace(missing[i], s[i]);
-      }
-    }
-    std::vector<double> out;
-    out.reserve(pairs.size());
-    for (const ImagePair& p : pairs) out.push_back(scores_->at(p));
-    return out;
-  }
-
- private:
-  std::shared_ptr<BridgeScorer> scorer_;
-  std::unordered_map<ImagePair, double, ImagePairHash>* scores_;
-};
-
-}  // namespace
-
 JudgedHierarchy BuildHierarchyJudgingTrustedEdges(
     const ViewGraph& graph, const ScorerFactory& make_scorer,
     const HierarchyOptions& hierarchy_options,
@@ -80,7 +33,7 @@ JudgedHierarchy BuildHierarchyJudgingTrustedEdges(
   options.Check();
   JudgedHierarchy out;
   out.graph = graph;
-  std::unordered_map<ImagePair, double, ImagePairHash> scores;
+  PairScores& scores = out.scores;
   std::set<ImagePair> removed;
   std::set<ImagePair> judged;
   for (int round = 0; round < options.max_rounds; ++round) {
@@ -95,11 +48,11 @@ JudgedHierarchy BuildHierarchyJudgingTrustedEdges(
               make_scorer ? make_scorer(communities) : nullptr;
           if (!made) return nullptr;
           scorer = std::move(made);
-          return std::make_unique<RememberingScorer>(scorer, &scores);
+          return std::make_unique<MemoScorer>(scorer, &scores);
         },
         hierarchy_options);
     if (!scorer || scorer->IsFree()) break;
-    RememberingScorer remembering(scorer, &scores);
+    MemoScorer remembering(scorer, &scores);
     const std::vector<ImagePair> trusted = TrustedEdges(out.hierarchy);
     const std::vector<double> trusted_scores = remembering.Score(trusted);
     judged.insert(trusted.begin(), trusted.end());

@@ -15,6 +15,7 @@
 #include <functional>
 #include <vector>
 
+#include "hisfm/graph/bridge_scorer.h"
 #include "hisfm/graph/hierarchy.h"
 #include "hisfm/graph/view_graph.h"
 
@@ -59,6 +60,8 @@ struct JudgedHierarchy {
   /// Pairs the scorer was asked about over all rounds, bridges and trusted
   /// edges (distinct pairs; each was asked once).
   size_t num_pairs_scored = 0;
+  /// Their scores, for later stages to ask through a MemoScorer.
+  PairScores scores;
 };
 
 /// The edges of `hierarchy` that the paper trusts without verification:

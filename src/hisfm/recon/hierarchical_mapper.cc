@@ -114,14 +114,19 @@ struct LoadedInput {
 // (those scoring at least the bridges' threshold but less are kept in
 // reserve); with clean_plugin_inliers, every edge used keeps only the
 // inliers that agree with the geometry the builtin edge test accepts for it.
-// The plug-in's verdicts stand: the builtin's score is not used.
+// The plug-in's verdicts stand: the builtin's score is not used. `scorer`
+// remembers its scores in `scores` (MemoScorer): the pairs it grows by are
+// the ones the plug-in was asked about here.
 void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
+                       const PairScores& scores,
                        const HierarchicalMapperOptions& options,
                        LoadedInput* in) {
   const VerifiedHierarchyOptions& o = options.verifier.verified_hierarchy;
-  const size_t num_scored = AddSupportEdges(
+  const size_t known = scores.size();
+  const size_t num_judged = AddSupportEdges(
       in->graph, scorer, o.support_edges, o.support_threshold, &in->hierarchy,
       &in->reserve_edges, options.hierarchy.skeleton.verify_threshold);
+  const size_t num_asked = scores.size() - known;
   size_t before = 0;
   size_t after = 0;
   if (options.verifier.clean_plugin_inliers) {
@@ -130,16 +135,18 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
     for (const ViewGraphEdge& e : in->reserve_edges) used.push_back(e.pair);
     CleanInliers(used, geometry, &in->inliers, &before, &after);
   }
-  in->verification["support_edges_scored"] = num_scored;
+  in->verification["support_edges_judged"] = num_judged;
+  in->verification["support_edges_scored"] = num_asked;
+  in->verification["pairs_scored"] = scores.size();
   in->verification["support_edges"] = in->hierarchy.support_edges.size();
   in->verification["reserve_edges"] = in->reserve_edges.size();
   in->verification["inliers_before_cleaning"] = before;
   in->verification["inliers_after_cleaning"] = after;
   HISFM_LOG_INFO(
-      "support edges: {} pairs scored, {} taken, {} in reserve; {} of {} "
-      "inliers kept on the edges used",
-      num_scored, in->hierarchy.support_edges.size(), in->reserve_edges.size(),
-      after, before);
+      "support edges: {} pairs judged ({} new to the verifier), {} taken, {} "
+      "in reserve; {} of {} inliers kept on the edges used",
+      num_judged, num_asked, in->hierarchy.support_edges.size(),
+      in->reserve_edges.size(), after, before);
 }
 
 LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
@@ -227,6 +234,9 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
       reused = std::move(scorer);
       return std::make_unique<BorrowedScorer>(reused.get());
     };
+    // Every score, so that the support edges ask the plug-in only about
+    // pairs the hierarchy's rounds did not.
+    PairScores scores;
     if (options.verifier.judge_trusted_edges) {
       JudgedHierarchy judged = BuildHierarchyJudgingTrustedEdges(
           in.graph, make_scorer, options.hierarchy,
@@ -242,13 +252,13 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
           "scored in all",
           judged.num_scored, judged.rejected.size(), judged.rounds,
           judged.num_pairs_scored);
+      scores = std::move(judged.scores);
     } else {
       in.hierarchy = BuildHierarchy(in.graph, make_scorer, options.hierarchy);
     }
     if (options.verifier.IsPlugIn()) {
-      const std::unique_ptr<BridgeScorer> scorer =
-          make_scorer(in.hierarchy.communities);
-      AddPlugInGeometry(db, *scorer, options, &in);
+      MemoScorer memo(make_scorer(in.hierarchy.communities), &scores);
+      AddPlugInGeometry(db, memo, scores, options, &in);
     }
   }
   in.graph_seconds = timer.ElapsedSeconds();

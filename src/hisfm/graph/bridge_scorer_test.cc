@@ -1,0 +1,53 @@
+#include "hisfm/graph/bridge_scorer.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+
+#include "hisfm/util/error.h"
+
+namespace hisfm {
+namespace {
+
+// Scores a pair by its first image's id over 100; counts the calls per pair.
+// With `drop_last`, returns one score too few.
+struct CountingScorer : BridgeScorer {
+  std::map<ImagePair, int> calls;
+  bool drop_last = false;
+  std::string Name() const override { return "counting"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    std::vector<double> s;
+    for (const ImagePair& p : pairs) {
+      ++calls[p];
+      s.push_back(p.image_id1 / 100.0);
+    }
+    if (drop_last && !s.empty()) s.pop_back();
+    return s;
+  }
+};
+
+TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {
+  auto counting = std::make_shared<CountingScorer>();
+  PairScores scores;
+  MemoScorer first(counting, &scores);
+  EXPECT_EQ(first.Score({ImagePair(1, 2), ImagePair(3, 4)}),
+            (std::vector<double>{0.01, 0.03}));
+  // A second memo over the same scores (a later stage) asks only the new
+  // pair, and returns the scores in the order asked.
+  MemoScorer second(counting, &scores);
+  EXPECT_EQ(second.Score({ImagePair(5, 6), ImagePair(3, 4), ImagePair(1, 2)}),
+            (std::vector<double>{0.05, 0.03, 0.01}));
+  EXPECT_EQ(scores.size(), 3u);
+  for (const auto& [pair, n] : counting->calls) {
+    EXPECT_EQ(n, 1) << pair.image_id1 << "-" << pair.image_id2;
+  }
+  EXPECT_EQ(second.Name(), "counting");
+
+  counting->drop_last = true;
+  EXPECT_THROW(second.Score({ImagePair(7, 8)}), Error);
+  EXPECT_EQ(scores.count(ImagePair(7, 8)), 0u);
+}
+
+}  // namespace
+}  // namespace hisfm
