@@ -94,6 +94,11 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.clean_plugin_inliers", o->verifier.clean_plugin_inliers,
         "plug-in verifiers: reconstruct each edge from the inliers that "
         "agree with the geometry the builtin edge test accepts");
+  visit("--HiSfM.clean_error_factor",
+        o->verifier.multiview.edge_test.inlier_error_factor,
+        "Cleaning (--HiSfM.clean_inliers, --HiSfM.clean_plugin_inliers): "
+        "an inlier is kept within this many times the pose's support "
+        "error of the joined geometry");
   visit("--HiSfM.burstiness_weights",
         o->verifier.burstiness_weights,
         "builtin verifier: rank pairs by burstiness-weighted support "

@@ -478,15 +478,17 @@ TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
   EXPECT_EQ(v["pairs_scored"].get<size_t>(),
             paper["verification"]["pairs_scored"].get<size_t>() +
                 v["support_edges_scored"].get<size_t>());
-  EXPECT_EQ(v["inliers_before_cleaning"].get<size_t>(), 0u)
-      << "plug-in inliers are not cleaned by default";
+  // Plug-in inliers are cleaned by default, keeping most of them.
+  const size_t before = v["inliers_before_cleaning"].get<size_t>();
+  const size_t after = v["inliers_after_cleaning"].get<size_t>();
+  EXPECT_GT(before, 0u);
+  EXPECT_LT(after, before);
+  EXPECT_GT(after, before / 2);
   EXPECT_EQ(supported["hierarchy_edges"].get<size_t>(),
             paper["hierarchy_edges"].get<size_t>() +
                 v["support_edges"].get<size_t>());
   EXPECT_EQ(supported["registered_images"], 150);
-  // Not asserted: the verdict. The release build gives 98.3% of pairs
-  // within 5 degrees here, the sanitizer build 76.9% (decisions.md).
-  EXPECT_GT(with.verdict_pair_fraction, 0.5) << with.verdict_reason;
+  EXPECT_TRUE(with.correct) << with.verdict_reason;
 }
 
 TEST(ExhaustiveFilter, DropsRejectedPairsAndKeepsTheInput) {

@@ -259,6 +259,7 @@ void EdgeTestOptions::Check() const {
   visibility.Check();
   HISFM_CHECK_OPTION(occlusion_cell_px, occlusion_cell_px > 0, "> 0");
   HISFM_CHECK_OPTION(occlusion_margin, occlusion_margin >= 0, ">= 0");
+  HISFM_CHECK_OPTION(inlier_error_factor, inlier_error_factor >= 1, ">= 1");
 }
 
 double EdgeEvidence::MissingFraction() const {
@@ -367,7 +368,8 @@ EdgeEvidence TestEdge(GeometryCache& cache, const LocalModel& model_i,
   // The pair's inliers that agree with the joined geometry: on the epipolar
   // geometry of the refined pose, and where they are model points, on the
   // model point's reprojection.
-  const double max_error_px = cache.options().relative_pose.support_error_px;
+  const double max_error_px = options.inlier_error_factor *
+                              cache.options().relative_pose.support_error_px;
   const double focal = 0.5 * (ii.camera.MeanFocal() + ij.camera.MeanFocal());
   const double angle_cos = std::cos(
       cache.options().relative_pose.min_cheirality_angle_deg * M_PI / 180.0);

@@ -54,6 +54,16 @@ struct EdgeTestOptions {
   /// occlusion_margin (relative).
   double occlusion_cell_px = 32;
   double occlusion_margin = 0.1;
+  /// A pair's inlier is consistent with the joined geometry
+  /// (EdgeEvidence::consistent) when its epipolar (Sampson) error on the
+  /// refined pose and, where it is a model point, its reprojection error
+  /// are within this many times relative_pose.support_error_px. A match
+  /// one repetition over on a repeated facade lies tens of pixels off its
+  /// model point's projection; at 1 (as tight as the pose's own support)
+  /// a fifth of the true matches go too, and a chain of views can lose
+  /// the shared matches it registers through (decisions.md, 2026-12-03,
+  /// sixth session).
+  double inlier_error_factor = 6.0;
   /// Record which unique points were missing (EdgeEvidence::missing), for
   /// studies of the test.
   bool record_missing = false;

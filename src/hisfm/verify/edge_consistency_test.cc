@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iostream>
 #include <map>
 #include <vector>
 
@@ -56,6 +57,12 @@ class EdgeConsistencyTest : public ::testing::Test {
   }
   static bool IsDoppelganger(const ImagePair& p) {
     return street_->scene.true_fraction.at(p) < 0.2;
+  }
+  // Whether an inlier (oriented as stored) relates the same scene point.
+  static bool IsTrueMatch(const ImagePair& p, const FeatureMatch& m) {
+    const auto& k = street_->scene.point_of_keypoint;
+    const int a = k[p.image_id1 - 1][m.idx1];
+    return a >= 0 && a == k[p.image_id2 - 1][m.idx2];
   }
 
   static street_test::Opened* street_;
@@ -190,6 +197,53 @@ TEST_F(EdgeConsistencyTest, MissingOrMismatchedModelsAreNotJudged) {
   EXPECT_TRUE(ev.consistent.empty());
 }
 
+// On the true pairs, the inliers kept as consistent at a tolerance of 1, 3
+// and 6 times the support error: a wider tolerance keeps a superset, more of
+// the true matches, and still drops the false ones (a false match on a
+// repeated facade lies about a repetition off its model point).
+TEST_F(EdgeConsistencyTest, WiderToleranceKeepsTrueMatchesOnly) {
+  const std::vector<double> factors = {1, 3, 6};
+  std::vector<size_t> true_kept(factors.size()), false_kept(factors.size());
+  size_t num_true_matches = 0, num_false_matches = 0;
+  for (const ViewGraphEdge& e : street_->graph.Edges()) {
+    if (!IsTrue(e.pair) || e.pair.image_id2 > 10) continue;
+    const std::vector<FeatureMatch>& matches =
+        cache_->Pair(e.pair.image_id1, e.pair.image_id2)->matches;
+    std::vector<EdgeEvidence> evidence;
+    for (const double f : factors) {
+      EdgeTestOptions options;
+      options.inlier_error_factor = f;
+      evidence.push_back(Test(e.pair, options));
+    }
+    if (!evidence[0].judged) continue;
+    for (size_t k = 0; k < matches.size(); ++k) {
+      const bool is_true = IsTrueMatch(e.pair, matches[k]);
+      (is_true ? num_true_matches : num_false_matches) += 1;
+      for (size_t f = 0; f < factors.size(); ++f) {
+        ASSERT_TRUE(evidence[f].judged);
+        if (f > 0 && evidence[f - 1].consistent[k]) {
+          EXPECT_TRUE(evidence[f].consistent[k]) << "not a superset";
+        }
+        if (evidence[f].consistent[k]) {
+          (is_true ? true_kept : false_kept)[f] += 1;
+        }
+      }
+    }
+  }
+  ASSERT_GT(num_true_matches, 100u);
+  ASSERT_GT(num_false_matches, 10u);
+  for (size_t f = 0; f < factors.size(); ++f) {
+    std::cout << "tolerance x" << factors[f] << ": true matches kept "
+              << true_kept[f] << " of " << num_true_matches
+              << ", false kept " << false_kept[f] << " of "
+              << num_false_matches << "\n";
+  }
+  EXPECT_GT(true_kept[2], true_kept[0]);
+  // Seed 1: see the printed counts.
+  EXPECT_GT(true_kept[2], 0.9 * num_true_matches);
+  EXPECT_LT(false_kept[2], 0.5 * num_false_matches);
+}
+
 TEST(EdgeTestOptions, CheckRejectsOutOfRangeValues) {
   EXPECT_NO_THROW(EdgeTestOptions().Check());
   auto expect_throw = [](auto modify) {
@@ -203,6 +257,7 @@ TEST(EdgeTestOptions, CheckRejectsOutOfRangeValues) {
   expect_throw([](EdgeTestOptions& o) { o.join_loss_px = 0; });
   expect_throw([](EdgeTestOptions& o) { o.occlusion_cell_px = 0; });
   expect_throw([](EdgeTestOptions& o) { o.occlusion_margin = -0.1; });
+  expect_throw([](EdgeTestOptions& o) { o.inlier_error_factor = 0.5; });
   expect_throw([](EdgeTestOptions& o) { o.visibility.max_scale_change = 0.9; });
 }
 

@@ -33,11 +33,12 @@ struct VerifierOptions {
   bool judge_trusted_edges = true;
   /// With a plug-in verifier (IsPlugIn), reconstruct each edge used from
   /// the inliers that agree with the geometry the builtin edge test accepts
-  /// for it (verified_hierarchy.h CleanInliers), as the builtin verifier
-  /// does. Off by default: on chains of views it can leave consecutive
-  /// edges too few shared matches to register across (decisions.md,
-  /// 2026-12-03, plug-in geometry).
-  bool clean_plugin_inliers = false;
+  /// for it (verified_hierarchy.h CleanInliers, within
+  /// multiview.edge_test.inlier_error_factor), as the builtin verifier
+  /// does: a true pair of a repeated facade also holds matches one
+  /// repetition over, which a pair score cannot remove (decisions.md,
+  /// 2026-12-03, sixth session).
+  bool clean_plugin_inliers = true;
   /// Options of the builtin (multi-view) disambiguator.
   MultiViewVerifierOptions multiview;
   /// How the builtin verifier checks the trusted edges, adds support edges
