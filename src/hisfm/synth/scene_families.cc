@@ -117,7 +117,11 @@ struct SurfaceSet {
       SurfacePoint p;
       if (k < rects.size()) {
         const Rect& r = rects[k];
-        p.xyz = r.origin + rng->Uniform() * r.a + rng->Uniform() * r.b;
+        // Drawn in statements of their own, the second first as g++
+        // evaluated the operands before (their order is unspecified).
+        const double v = rng->Uniform();
+        const double u = rng->Uniform();
+        p.xyz = r.origin + u * r.a + v * r.b;
         p.normal = r.normal;
         p.tangent = r.tangent;
       } else {
@@ -359,8 +363,13 @@ Rigid3d StreetCamera(const Eigen::Vector3d& center,
 
 Eigen::Vector3d JitteredCenter(const Eigen::Vector3d& center, double sigma,
                                SynthRandom* rng) {
-  return center + Eigen::Vector3d(rng->Normal(sigma), rng->Normal(sigma),
-                                  rng->Normal(0.5 * sigma));
+  // One draw per statement (argument order is unspecified), last
+  // coordinate first as g++ evaluated the arguments when the families'
+  // instances were measured.
+  const double z = rng->Normal(0.5 * sigma);
+  const double y = rng->Normal(sigma);
+  const double x = rng->Normal(sigma);
+  return center + Eigen::Vector3d(x, y, z);
 }
 
 // The distinct transforms between replicas of the same motif.

@@ -225,9 +225,12 @@ void GenerateImage(const SyntheticScene& scene, const PointGrid& grid,
     const Eigen::Vector3d bitangent = p.normal.cross(p.tangent);
     Eigen::Vector3d local(d.dot(p.tangent), d.dot(bitangent), d.dot(p.normal));
     if (descriptor_noise > 0.0) {
-      local += Eigen::Vector3d(rng.Normal(descriptor_noise),
-                               rng.Normal(descriptor_noise),
-                               rng.Normal(descriptor_noise));
+      // One draw per statement, last coordinate first (as g++ evaluated
+      // the arguments before; argument order is unspecified).
+      const double nz = rng.Normal(descriptor_noise);
+      const double ny = rng.Normal(descriptor_noise);
+      const double nx = rng.Normal(descriptor_noise);
+      local += Eigen::Vector3d(nx, ny, nz);
       local.normalize();
     }
     feature.local_view = local.cast<float>();
