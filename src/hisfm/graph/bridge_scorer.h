@@ -55,7 +55,7 @@ class BorrowedScorer : public BridgeScorer {
     return scorer_->CycleRotationErrorDeg(cycle);
   }
 
- private:
+ protected:
   BridgeScorer* scorer_;
 };
 
@@ -66,23 +66,17 @@ using PairScores = std::unordered_map<ImagePair, double, ImagePairHash>;
 /// so that no pair is asked of the scorer twice while the map lives (across
 /// rebuilds of the hierarchy and the stages after it). Throws hisfm::Error
 /// if the scorer returns the wrong number of scores.
-class MemoScorer : public BridgeScorer {
+class MemoScorer : public BorrowedScorer {
  public:
   /// `scorer` is shared, `scores` must outlive this object.
   MemoScorer(std::shared_ptr<BridgeScorer> scorer, PairScores* scores)
-      : scorer_(std::move(scorer)), scores_(scores) {}
-  std::string Name() const override { return scorer_->Name(); }
+      : BorrowedScorer(scorer.get()),
+        owner_(std::move(scorer)),
+        scores_(scores) {}
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
-  size_t PreferredBatchSize() const override {
-    return scorer_->PreferredBatchSize();
-  }
-  bool IsFree() const override { return scorer_->IsFree(); }
-  double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
-    return scorer_->CycleRotationErrorDeg(cycle);
-  }
 
  private:
-  std::shared_ptr<BridgeScorer> scorer_;
+  std::shared_ptr<BridgeScorer> owner_;
   PairScores* scores_;
 };
 
