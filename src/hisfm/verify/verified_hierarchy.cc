@@ -30,7 +30,9 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
   }
   std::set<ImagePair> present;
   for (const ImagePair& p : hierarchy->Edges()) present.insert(p);
-  std::set<ImagePair> added;
+  // Pairs already scored here (a pair can be among the strongest of both
+  // its images).
+  std::set<ImagePair> judged;
   for (size_t i = 0; i < graph.NumImages(); ++i) {
     const ImageId id = graph.Images()[i];
     auto ci = component_of.find(id);
@@ -40,19 +42,17 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
       const ImageId other = graph.OtherEnd(e, id);
       auto co = component_of.find(other);
       if (co == component_of.end() || co->second != ci->second ||
-          present.count(edge.pair) || added.count(edge.pair)) {
+          present.count(edge.pair) || !judged.insert(edge.pair).second) {
         continue;
       }
       const double score = verifier.Score({edge.pair}).front();
       ++num_scored;
       if (score < threshold) {
         if (reserve && score >= reserve_threshold) {
-          added.insert(edge.pair);
           reserve->push_back(edge);
         }
         continue;
       }
-      added.insert(edge.pair);
       hierarchy->support_edges.push_back(edge);
       HierarchyComponent& comp = hierarchy->components[ci->second];
       comp.edges.insert(

@@ -24,7 +24,8 @@ struct VerifiedHierarchyOptions {
   /// rejected.
   TrustedEdgeOptions trusted_edges;
   /// Replace each used edge's inliers by those consistent with the geometry
-  /// its test accepted.
+  /// its test accepted (within EdgeTestOptions::inlier_error_factor times
+  /// the pose's support error).
   bool clean_inliers = true;
   /// A trusted edge is rejected when its score falls below this and the
   /// edge test judged it (PairFeatures::Speaks). Trusted
@@ -73,7 +74,7 @@ struct VerifiedHierarchy : JudgedHierarchy {
 /// VerifiedHierarchyOptions::support_edges). If `reserve` is given, the
 /// pairs among them scoring at least `reserve_threshold` but below
 /// `threshold` are appended to it instead (VerifiedHierarchy::reserve_edges).
-/// Returns how many pairs `verifier` was asked to score.
+/// Returns how many distinct pairs `verifier` was asked to score.
 size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
                      int count, double threshold, Hierarchy* hierarchy,
                      std::vector<ViewGraphEdge>* reserve = nullptr,
