@@ -42,6 +42,7 @@ class BridgeScorer {
 /// alive (for APIs that take ownership of a scorer, e.g. ScorerFactory).
 class BorrowedScorer : public BridgeScorer {
  public:
+  /// `scorer` must be non-null and outlive this object.
   explicit BorrowedScorer(BridgeScorer* scorer) : scorer_(scorer) {}
   std::string Name() const override { return scorer_->Name(); }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
@@ -56,6 +57,10 @@ class BorrowedScorer : public BridgeScorer {
   }
 
  protected:
+  /// The scorer every call is forwarded to.
+  BridgeScorer* Borrowed() const { return scorer_; }
+
+ private:
   BridgeScorer* scorer_;
 };
 
@@ -64,11 +69,13 @@ using PairScores = std::unordered_map<ImagePair, double, ImagePairHash>;
 
 /// Forwards to a scorer and remembers every score in a map the caller owns,
 /// so that no pair is asked of the scorer twice while the map lives (across
-/// rebuilds of the hierarchy and the stages after it). Throws hisfm::Error
-/// if the scorer returns the wrong number of scores.
+/// rebuilds of the hierarchy and the stages after it); a pair repeated
+/// within one batch is asked once too. Throws hisfm::Error if the scorer
+/// returns the wrong number of scores.
 class MemoScorer : public BorrowedScorer {
  public:
-  /// `scorer` is shared, `scores` must outlive this object.
+  /// `scorer` is shared and must be non-null; `scores` must be non-null and
+  /// outlive this object.
   MemoScorer(std::shared_ptr<BridgeScorer> scorer, PairScores* scores)
       : BorrowedScorer(scorer.get()),
         owner_(std::move(scorer)),

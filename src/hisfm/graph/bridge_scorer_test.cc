@@ -44,6 +44,11 @@ TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {
   }
   EXPECT_EQ(second.Name(), "counting");
 
+  // A pair repeated within one batch is asked once and answered twice.
+  EXPECT_EQ(second.Score({ImagePair(9, 10), ImagePair(9, 10)}),
+            (std::vector<double>{0.09, 0.09}));
+  EXPECT_EQ(counting->calls.at(ImagePair(9, 10)), 1);
+
   counting->drop_last = true;
   EXPECT_THROW(second.Score({ImagePair(7, 8)}), Error);
   EXPECT_EQ(scores.count(ImagePair(7, 8)), 0u);

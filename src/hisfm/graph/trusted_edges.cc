@@ -78,7 +78,6 @@ JudgedHierarchy BuildHierarchyJudgingTrustedEdges(
                     failing.size(), trusted.size());
   }
   out.num_scored = judged.size();
-  out.num_pairs_scored = scores.size();
   return out;
 }
 

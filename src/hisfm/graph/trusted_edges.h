@@ -57,10 +57,9 @@ struct JudgedHierarchy {
   size_t num_unresolved = 0;
   /// Trusted edges scored over all rounds (distinct pairs).
   size_t num_scored = 0;
-  /// Pairs the scorer was asked about over all rounds, bridges and trusted
-  /// edges (distinct pairs; each was asked once).
-  size_t num_pairs_scored = 0;
-  /// Their scores, for later stages to ask through a MemoScorer.
+  /// Every pair the scorer was asked about over all rounds, bridges and
+  /// trusted edges (each asked once), with its score, for later stages to
+  /// ask through a MemoScorer.
   PairScores scores;
 };
 

@@ -114,7 +114,7 @@ TEST(TrustedEdges, RejectedEdgesLeaveTheHierarchyAndEachPairIsScoredOnce) {
   EXPECT_TRUE(rejected.count(ImagePair(3, 9)));
   EXPECT_TRUE(rejected.count(ImagePair(4, 10)));
   for (const auto& [pair, n] : calls) EXPECT_EQ(n, 1) << "scored twice";
-  EXPECT_EQ(j.num_pairs_scored, calls.size());
+  EXPECT_EQ(j.scores.size(), calls.size());
   // Bridges are scored too; the trusted edges of the final round are among
   // the scored ones.
   EXPECT_LE(j.num_scored, calls.size());

@@ -246,12 +246,12 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
                       {"rejected_trusted_edges", judged.rejected.size()},
                       {"unresolved_trusted_edges", judged.num_unresolved},
                       {"trusted_edges_scored", judged.num_scored},
-                      {"pairs_scored", judged.num_pairs_scored}};
+                      {"pairs_scored", judged.scores.size()}};
       HISFM_LOG_INFO(
           "trusted edges: {} scored, {} rejected in {} round(s); {} pairs "
           "scored in all",
           judged.num_scored, judged.rejected.size(), judged.rounds,
-          judged.num_pairs_scored);
+          judged.scores.size());
       scores = std::move(judged.scores);
     } else {
       in.hierarchy = BuildHierarchy(
