@@ -15,10 +15,11 @@ HEADER = ["id1", "id2", "label", "judged", "agree_i", "agree_j", "unique",
           "rel_burst"]
 
 
-def row(label, raw, agreement, burstiness, judged=True, other=1.0):
+def row(label, raw, agreement, burstiness, judged=True, other=1.0, found=0):
     """A cue_study row whose test speaks (or not) with the given raw score;
     `agreement` is the smaller of the two sides' agreements, `other` the
-    larger (on side i or j at random)."""
+    larger (on side i or j at random); `found` of the visible points were
+    found (the models find half of their own)."""
     unique = 100
     missing = round((1 - raw) * unique)
     sides = ["%.4f" % agreement, "%.4f" % max(agreement, other)]
@@ -26,7 +27,8 @@ def row(label, raw, agreement, burstiness, judged=True, other=1.0):
     return {"id1": "1", "id2": "2", "label": str(label),
             "judged": "1" if judged else "0",
             "agree_i": sides[0], "agree_j": sides[1],
-            "unique": str(unique), "visible": str(missing), "found": "0",
+            "unique": str(unique), "visible": str(missing + found),
+            "found": str(found),
             "displaced": "0", "models_checked": "100", "models_found": "50",
             "rel_burst": "%.4f" % burstiness}
 
@@ -84,6 +86,20 @@ class FitScoreCalibrationTest(unittest.TestCase):
         # Out-of-range inputs are clamped as in CalibratedPairScore.
         self.assertAlmostEqual(fit.judged_features(row(1, 0.5, 1, 1.6))[3],
                                1.0)
+
+    def test_found_shortfall_follows_the_binomial_tail(self):
+        # Nothing visible: no shortfall.
+        self.assertEqual(fit.found_shortfall(row(1, 1.0, 1, 1)), 1.0)
+        # 2 of 2 visible points found at repeatability 0.5: P(X <= 2) = 1.
+        self.assertAlmostEqual(fit.found_shortfall(row(1, 1.0, 1, 1, found=2)),
+                               1.0)
+        # 0 of 4 found: P = 0.5^4, log10 = -1.204, mapped to 0.8796.
+        r = row(1, 0.96, 1, 1)
+        self.assertEqual(r["visible"], "4")
+        self.assertAlmostEqual(fit.found_shortfall(r), 1 - 4 * math.log10(2)
+                               / fit.SHORTFALL_LOG10_CLAMP)
+        # 0 of 60 found: far past the clamp.
+        self.assertEqual(fit.found_shortfall(row(0, 0.4, 1, 1)), 0.0)
 
     def test_one_class_instances_are_left_out(self):
         rng = random.Random(5)
