@@ -56,21 +56,25 @@ class FitScoreCalibrationTest(unittest.TestCase):
         self.assertAlmostEqual(raw, fit.MAX_SILENT_RAW)
 
     def test_logistic_fit_recovers_the_generating_model(self):
-        # Labels drawn from a known logistic model of the three inputs.
-        truth = [-4.0, 3.0, 2.0, 2.5]
+        # Labels drawn from a known logistic model of the four inputs; the
+        # points found vary apart from the raw score, so the shortfall is
+        # an input of its own.
+        truth = [-4.0, 3.0, 2.0, 2.5, 1.5]
         rng = random.Random(7)
         rows = []
         for _ in range(6000):
             x = [rng.random() for _ in range(3)]
-            z = truth[0] + sum(t * v for t, v in zip(truth[1:], x))
-            label = 1 if rng.random() < 1 / (1 + math.exp(-z)) else 0
-            rows.append(row(label, *x))
+            r = row(0, *x, found=rng.randrange(0, 40))
+            z = sum(t * v for t, v in zip(truth, fit.judged_features(r)))
+            r["label"] = "1" if rng.random() < 1 / (1 + math.exp(-z)) else "0"
+            rows.append(r)
         path = os.path.join(self.dir.name, "a.tsv")
         write_tsv(path, rows)
         # With the prior equal to the sample's share of true rows the
         # weights are uniform and the fit is the plain maximum likelihood.
         share = sum(r["label"] == "1" for r in rows) / len(rows)
         beta = fit.fit_logistic([path], share, ridge=1e-6)
+        self.assertEqual(len(beta), len(truth))
         for b, t in zip(beta, truth):
             self.assertAlmostEqual(b, t, delta=0.5)
 
@@ -83,6 +87,7 @@ class FitScoreCalibrationTest(unittest.TestCase):
             self.assertAlmostEqual(x[1], 0.5)
             self.assertAlmostEqual(x[2], 0.3)
             self.assertAlmostEqual(x[3], 0.8)
+            self.assertAlmostEqual(x[4], fit.found_shortfall(r))
         # Out-of-range inputs are clamped as in CalibratedPairScore.
         self.assertAlmostEqual(fit.judged_features(row(1, 0.5, 1, 1.6))[3],
                                1.0)
@@ -98,8 +103,18 @@ class FitScoreCalibrationTest(unittest.TestCase):
         self.assertEqual(r["visible"], "4")
         self.assertAlmostEqual(fit.found_shortfall(r), 1 - 4 * math.log10(2)
                                / fit.SHORTFALL_LOG10_CLAMP)
+        # 1 of 3 found: P(X <= 1) = (1 + 3) / 8, as the C++ test.
+        r = row(1, 0.98, 1, 1, found=1)
+        self.assertEqual(r["visible"], "3")
+        self.assertAlmostEqual(fit.found_shortfall(r), 1 + math.log10(0.5)
+                               / fit.SHORTFALL_LOG10_CLAMP)
         # 0 of 60 found: far past the clamp.
         self.assertEqual(fit.found_shortfall(row(0, 0.4, 1, 1)), 0.0)
+        # Models that checked nothing: repeatability 0 (clamped to 1e-6), so
+        # finding nothing is no shortfall, as PairFeatures::FoundShortfall.
+        r = row(1, 0.9, 1, 1)
+        r["models_checked"], r["models_found"] = "0", "0"
+        self.assertAlmostEqual(fit.found_shortfall(r), 1.0, places=4)
 
     def test_one_class_instances_are_left_out(self):
         rng = random.Random(5)

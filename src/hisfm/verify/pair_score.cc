@@ -45,10 +45,7 @@ bool PairFeatures::Speaks() const {
   if (!judged || num_unique < kMinUniquePoints) return false;
   const double chance =
       num_visible > 0 ? num_found_displaced / (4.0 * num_visible) : 0.0;
-  const double repeatability =
-      models_checked > 0 ? static_cast<double>(models_found) / models_checked
-                         : 0.0;
-  return repeatability >= kMinRepeatabilityOverChance * chance;
+  return Repeatability() >= kMinRepeatabilityOverChance * chance;
 }
 
 double PairFeatures::RawScore() const {
@@ -65,10 +62,10 @@ double PairFeatures::Repeatability() const {
 }
 
 double PairFeatures::FoundShortfall() const {
-  if (num_visible <= 0) return 1.0;
-  const double p = std::clamp(Repeatability(), 1e-6, 1 - 1e-6);
   const int n = num_visible;
-  const int k = std::clamp(num_found, 0, n);
+  const int k = std::clamp(num_found, 0, std::max(n, 0));
+  if (n <= 0 || k == n) return 1.0;
+  const double p = std::clamp(Repeatability(), 1e-6, 1 - 1e-6);
   // log10 P(X <= k) for X ~ Binomial(n, p), summed from its largest term.
   std::vector<double> terms;
   terms.reserve(static_cast<size_t>(k) + 1);
@@ -81,7 +78,8 @@ double PairFeatures::FoundShortfall() const {
   double sum = 0;
   for (double t : terms) sum += std::exp(t - top);
   const double log10_tail = (top + std::log(sum)) / std::log(10.0);
-  return std::max(log10_tail, -kShortfallLog10Clamp) / kShortfallLog10Clamp +
+  return std::clamp(log10_tail, -kShortfallLog10Clamp, 0.0) /
+             kShortfallLog10Clamp +
          1.0;
 }
 

@@ -98,7 +98,13 @@ struct PairFeatures {
   /// true pair: log10 P(X <= num_found) for X ~ Binomial(num_visible,
   /// Repeatability()), clamped to [-kShortfallLog10Clamp, 0] and mapped to
   /// [0, 1] (1: no shortfall; 0: found at most what a true pair finds once
-  /// in 10^kShortfallLog10Clamp). 1 if nothing was predicted visible.
+  /// in 10^kShortfallLog10Clamp). 1 if nothing was predicted visible or
+  /// everything was found. Models that checked none of their points have
+  /// repeatability 0, so finding nothing is no shortfall; models that found
+  /// all of the few they checked make every miss count (the fit saw both).
+  /// A point counts as found in any of the images that should see it, at
+  /// the rate of one view: lenient towards true pairs (on cup, true pairs
+  /// find a median 1.1 times visible x repeatability).
   double FoundShortfall() const;
 };
 
@@ -107,7 +113,7 @@ struct PairFeatures {
 /// agreement * agreement + relative_burstiness * relative_burstiness +
 /// shortfall * FoundShortfall().
 struct JudgedScoreModel {
-  /// Log-odds of a pair with all three measurements at 0.
+  /// Log-odds of a pair with all four inputs at 0.
   double intercept = 0;
   /// Weight of PairFeatures::RawScore().
   double raw = 0;

@@ -63,10 +63,13 @@ TEST(PairScore, JudgedScoreIsTheLogisticModel) {
   const JudgedScoreModel& m = JudgedModel();
   for (const double agreement : {0.0, 0.3, 1.0}) {
     for (const double burstiness : {0.05, 0.5, 1.0}) {
-      const PairFeatures f = Raw06(agreement, burstiness);
+      // Raw06: 0 of 16 visible points found at repeatability 0.5, a tail
+      // of 2^-16.
+      const double shortfall =
+          1.0 - 16 * std::log10(2.0) / kShortfallLog10Clamp;
       const double z = m.intercept + m.raw * 0.6 + m.agreement * agreement +
                        m.relative_burstiness * burstiness +
-                       m.shortfall * f.FoundShortfall();
+                       m.shortfall * shortfall;
       EXPECT_NEAR(CalibratedPairScore(Raw06(agreement, burstiness)),
                   1 / (1 + std::exp(-z)), 1e-12)
           << agreement << " " << burstiness;
@@ -92,15 +95,26 @@ TEST(PairScore, FoundShortfallIsTheBinomialTail) {
               1.0 + std::log10(0.5) / kShortfallLog10Clamp, 1e-12);
   // Far past the clamp: 0 of 60 at 0.5 is 10^-18.
   EXPECT_DOUBLE_EQ(Judged(100, 60, 0).FoundShortfall(), 0.0);
-  // Fewer found for as many visible is more surprising, and lowers the
-  // score of a pair with the same raw score (missing over unique): 0 of 24
-  // found (as by cup's doppelganger 39-61) against 12 of 24.
+  // Large counts stay finite and in [0, 1]: 400 of 1000 at 0.45 is a
+  // tail of about 10^-3.1.
+  PairFeatures large = Judged(2000, 1000, 400);
+  large.models_checked = 100;
+  large.models_found = 45;
+  EXPECT_GT(large.FoundShortfall(), 0.5);
+  EXPECT_LT(large.FoundShortfall(), 0.8);
+  // Models that checked nothing: repeatability 0, no shortfall.
+  PairFeatures unchecked = Judged(40, 10, 0);
+  unchecked.models_checked = 0;
+  unchecked.models_found = 0;
+  EXPECT_NEAR(unchecked.FoundShortfall(), 1.0, 1e-5);
+  // Fewer found for as many visible is more surprising.
   EXPECT_GT(Judged(40, 20, 10).FoundShortfall(),
             Judged(40, 20, 4).FoundShortfall());
-  PairFeatures found_none = Judged(500, 24, 0);
-  PairFeatures found_half = Judged(500, 24, 12);
-  found_none.num_unique = 488;  // the same raw score: 1 - 24 / 488 ...
-  found_half.num_unique = 244;  // ... = 1 - 12 / 244
+  // It lowers the score of a pair with the same raw score (missing over
+  // unique): 0 of 24 found (as by cup's doppelganger 39-61) against 12 of
+  // 24, both 1 - 24 / 488 = 1 - 12 / 244.
+  const PairFeatures found_none = Judged(488, 24, 0);
+  const PairFeatures found_half = Judged(244, 24, 12);
   EXPECT_DOUBLE_EQ(found_none.RawScore(), found_half.RawScore());
   EXPECT_LT(CalibratedPairScore(found_none), CalibratedPairScore(found_half));
 }
