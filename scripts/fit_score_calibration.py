@@ -7,10 +7,8 @@ verified pair with its label (1 true, 0 false) and the edge test's counts.
 Output, as the C++ constants of pair_score.cc:
 - for the pairs the test judged ("speaks"): the coefficients of a logistic
   model of P(true) on the raw score, the join's depth agreement (the smaller
-  of the two models'), the relative burstiness-weighted support and the
-  shortfall of points found in the other side's images against the models'
-  own repeatability (PairFeatures::FoundShortfall), fitted by iteratively
-  reweighted least squares;
+  of the two models') and the relative burstiness-weighted support, fitted by
+  iteratively reweighted least squares;
 - for silent pairs: P(true) in 20 equal bins of the raw score, by isotonic
   regression (pool adjacent violators).
 Both fits weight each instance's true and false pairs so that true pairs
@@ -31,7 +29,6 @@ BINS = 20
 MIN_UNIQUE = 5             # kMinUniquePoints
 MIN_REPEAT_OVER_CHANCE = 2.0  # kMinRepeatabilityOverChance
 MAX_SILENT_RAW = 0.75      # kMaxSilentRawScore
-SHORTFALL_LOG10_CLAMP = 10.0  # kShortfallLog10Clamp
 
 
 def raw_score(row):
@@ -61,33 +58,12 @@ def clamp01(x):
     return min(1.0, max(0.0, x))
 
 
-def found_shortfall(row):
-    """PairFeatures::FoundShortfall: log10 P(X <= found), X ~ Binomial(visible,
-    repeatability), clamped to [-SHORTFALL_LOG10_CLAMP, 0] and mapped to
-    [0, 1]; 1 if nothing was predicted visible."""
-    n = int(float(row["visible"]))
-    if n <= 0:
-        return 1.0
-    checked = float(row["models_checked"])
-    p = float(row["models_found"]) / checked if checked > 0 else 0.0
-    p = min(max(p, 1e-6), 1 - 1e-6)
-    k = min(max(int(float(row["found"])), 0), n)
-    terms = [math.lgamma(n + 1) - math.lgamma(i + 1) - math.lgamma(n - i + 1)
-             + i * math.log(p) + (n - i) * math.log1p(-p)
-             for i in range(k + 1)]
-    top = max(terms)
-    log10_tail = (top + math.log(sum(math.exp(t - top) for t in terms))) \
-        / math.log(10)
-    return max(log10_tail, -SHORTFALL_LOG10_CLAMP) / SHORTFALL_LOG10_CLAMP + 1
-
-
 def judged_features(row):
     """The logistic model's inputs of a judged row (1 for the intercept, then
     as CalibratedPairScore uses them)."""
     raw, _ = raw_score(row)
     agreement = min(float(row["agree_i"]), float(row["agree_j"]))
-    return [1.0, raw, clamp01(agreement), clamp01(float(row["rel_burst"])),
-            found_shortfall(row)]
+    return [1.0, raw, clamp01(agreement), clamp01(float(row["rel_burst"]))]
 
 
 def weighted_rows(paths, prior):
@@ -199,8 +175,7 @@ def main():
     parser.add_argument("tsv", nargs="+")
     args = parser.parse_args()
     beta = fit_logistic(args.tsv, args.prior)
-    print("kJudgedModel = {%s};  // intercept, raw, agreement, burstiness, "
-          "shortfall"
+    print("kJudgedModel = {%s};  // intercept, raw, agreement, burstiness"
           % ", ".join("%.3f" % b for b in beta))
     table = fit_silent(args.tsv, args.prior)
     print("kSilent = {%s};" % ", ".join("%.3f" % v for v in table))

@@ -15,11 +15,10 @@ HEADER = ["id1", "id2", "label", "judged", "agree_i", "agree_j", "unique",
           "rel_burst"]
 
 
-def row(label, raw, agreement, burstiness, judged=True, other=1.0, found=0):
+def row(label, raw, agreement, burstiness, judged=True, other=1.0):
     """A cue_study row whose test speaks (or not) with the given raw score;
     `agreement` is the smaller of the two sides' agreements, `other` the
-    larger (on side i or j at random); `found` of the visible points were
-    found (the models find half of their own)."""
+    larger (on side i or j at random)."""
     unique = 100
     missing = round((1 - raw) * unique)
     sides = ["%.4f" % agreement, "%.4f" % max(agreement, other)]
@@ -27,8 +26,7 @@ def row(label, raw, agreement, burstiness, judged=True, other=1.0, found=0):
     return {"id1": "1", "id2": "2", "label": str(label),
             "judged": "1" if judged else "0",
             "agree_i": sides[0], "agree_j": sides[1],
-            "unique": str(unique), "visible": str(missing + found),
-            "found": str(found),
+            "unique": str(unique), "visible": str(missing), "found": "0",
             "displaced": "0", "models_checked": "100", "models_found": "50",
             "rel_burst": "%.4f" % burstiness}
 
@@ -56,25 +54,21 @@ class FitScoreCalibrationTest(unittest.TestCase):
         self.assertAlmostEqual(raw, fit.MAX_SILENT_RAW)
 
     def test_logistic_fit_recovers_the_generating_model(self):
-        # Labels drawn from a known logistic model of the four inputs; the
-        # points found vary apart from the raw score, so the shortfall is
-        # an input of its own.
-        truth = [-4.0, 3.0, 2.0, 2.5, 1.5]
+        # Labels drawn from a known logistic model of the three inputs.
+        truth = [-4.0, 3.0, 2.0, 2.5]
         rng = random.Random(7)
         rows = []
         for _ in range(6000):
             x = [rng.random() for _ in range(3)]
-            r = row(0, *x, found=rng.randrange(0, 40))
-            z = sum(t * v for t, v in zip(truth, fit.judged_features(r)))
-            r["label"] = "1" if rng.random() < 1 / (1 + math.exp(-z)) else "0"
-            rows.append(r)
+            z = truth[0] + sum(t * v for t, v in zip(truth[1:], x))
+            label = 1 if rng.random() < 1 / (1 + math.exp(-z)) else 0
+            rows.append(row(label, *x))
         path = os.path.join(self.dir.name, "a.tsv")
         write_tsv(path, rows)
         # With the prior equal to the sample's share of true rows the
         # weights are uniform and the fit is the plain maximum likelihood.
         share = sum(r["label"] == "1" for r in rows) / len(rows)
         beta = fit.fit_logistic([path], share, ridge=1e-6)
-        self.assertEqual(len(beta), len(truth))
         for b, t in zip(beta, truth):
             self.assertAlmostEqual(b, t, delta=0.5)
 
@@ -87,34 +81,9 @@ class FitScoreCalibrationTest(unittest.TestCase):
             self.assertAlmostEqual(x[1], 0.5)
             self.assertAlmostEqual(x[2], 0.3)
             self.assertAlmostEqual(x[3], 0.8)
-            self.assertAlmostEqual(x[4], fit.found_shortfall(r))
         # Out-of-range inputs are clamped as in CalibratedPairScore.
         self.assertAlmostEqual(fit.judged_features(row(1, 0.5, 1, 1.6))[3],
                                1.0)
-
-    def test_found_shortfall_follows_the_binomial_tail(self):
-        # Nothing visible: no shortfall.
-        self.assertEqual(fit.found_shortfall(row(1, 1.0, 1, 1)), 1.0)
-        # 2 of 2 visible points found at repeatability 0.5: P(X <= 2) = 1.
-        self.assertAlmostEqual(fit.found_shortfall(row(1, 1.0, 1, 1, found=2)),
-                               1.0)
-        # 0 of 4 found: P = 0.5^4, log10 = -1.204, mapped to 0.8796.
-        r = row(1, 0.96, 1, 1)
-        self.assertEqual(r["visible"], "4")
-        self.assertAlmostEqual(fit.found_shortfall(r), 1 - 4 * math.log10(2)
-                               / fit.SHORTFALL_LOG10_CLAMP)
-        # 1 of 3 found: P(X <= 1) = (1 + 3) / 8, as the C++ test.
-        r = row(1, 0.98, 1, 1, found=1)
-        self.assertEqual(r["visible"], "3")
-        self.assertAlmostEqual(fit.found_shortfall(r), 1 + math.log10(0.5)
-                               / fit.SHORTFALL_LOG10_CLAMP)
-        # 0 of 60 found: far past the clamp.
-        self.assertEqual(fit.found_shortfall(row(0, 0.4, 1, 1)), 0.0)
-        # Models that checked nothing: repeatability 0 (clamped to 1e-6), so
-        # finding nothing is no shortfall, as PairFeatures::FoundShortfall.
-        r = row(1, 0.9, 1, 1)
-        r["models_checked"], r["models_found"] = "0", "0"
-        self.assertAlmostEqual(fit.found_shortfall(r), 1.0, places=4)
 
     def test_one_class_instances_are_left_out(self):
         rng = random.Random(5)

@@ -2,17 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
 
 namespace hisfm {
 namespace {
 
 // The fit of scripts/fit_score_calibration.py on the tuning half
-// (pair_score.h; docs/decisions.md, 2026-12-04).
-constexpr JudgedScoreModel kJudgedModel = {-7.319, 4.255, 2.794, 1.811,
-                                           2.891};
+// (pair_score.h; docs/decisions.md, 2026-12-02).
+constexpr JudgedScoreModel kJudgedModel = {-5.582, 5.334, 1.897, 2.927};
 // P(true | raw score) in 20 bins of width 0.05, for pairs the edge test
-// could not judge (fitted 2026-12-02; not refitted with the model above).
+// could not judge.
 constexpr std::array<double, kScoreBins> kSilent = {
     0.300, 0.674, 0.674, 0.674, 0.740, 0.850, 0.850, 0.854, 0.854, 0.854,
     0.974, 0.989, 0.989, 0.989, 0.991, 0.999, 0.999, 0.999, 0.999, 0.999};
@@ -45,7 +43,10 @@ bool PairFeatures::Speaks() const {
   if (!judged || num_unique < kMinUniquePoints) return false;
   const double chance =
       num_visible > 0 ? num_found_displaced / (4.0 * num_visible) : 0.0;
-  return Repeatability() >= kMinRepeatabilityOverChance * chance;
+  const double repeatability =
+      models_checked > 0 ? static_cast<double>(models_found) / models_checked
+                         : 0.0;
+  return repeatability >= kMinRepeatabilityOverChance * chance;
 }
 
 double PairFeatures::RawScore() const {
@@ -56,41 +57,13 @@ double PairFeatures::RawScore() const {
   return std::clamp(relative_burstiness, 0.0, kMaxSilentRawScore);
 }
 
-double PairFeatures::Repeatability() const {
-  return models_checked > 0 ? static_cast<double>(models_found) / models_checked
-                            : 0.0;
-}
-
-double PairFeatures::FoundShortfall() const {
-  const int n = num_visible;
-  const int k = std::clamp(num_found, 0, std::max(n, 0));
-  if (n <= 0 || k == n) return 1.0;
-  const double p = std::clamp(Repeatability(), 1e-6, 1 - 1e-6);
-  // log10 P(X <= k) for X ~ Binomial(n, p), summed from its largest term.
-  std::vector<double> terms;
-  terms.reserve(static_cast<size_t>(k) + 1);
-  for (int i = 0; i <= k; ++i) {
-    terms.push_back(std::lgamma(n + 1.0) - std::lgamma(i + 1.0) -
-                    std::lgamma(n - i + 1.0) + i * std::log(p) +
-                    (n - i) * std::log1p(-p));
-  }
-  const double top = *std::max_element(terms.begin(), terms.end());
-  double sum = 0;
-  for (double t : terms) sum += std::exp(t - top);
-  const double log10_tail = (top + std::log(sum)) / std::log(10.0);
-  return std::clamp(log10_tail, -kShortfallLog10Clamp, 0.0) /
-             kShortfallLog10Clamp +
-         1.0;
-}
-
 double CalibratedPairScore(const PairFeatures& features) {
   if (features.Speaks()) {
     const JudgedScoreModel& m = kJudgedModel;
     const double z = m.intercept + m.raw * features.RawScore() +
                      m.agreement * std::clamp(features.agreement, 0.0, 1.0) +
                      m.relative_burstiness *
-                         std::clamp(features.relative_burstiness, 0.0, 1.0) +
-                     m.shortfall * features.FoundShortfall();
+                         std::clamp(features.relative_burstiness, 0.0, 1.0);
     return 1.0 / (1.0 + std::exp(-z));
   }
   return Interpolate(kSilent, features.RawScore());

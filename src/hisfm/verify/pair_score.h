@@ -16,29 +16,22 @@
 //    support of each of its images (match_burstiness.h; the smaller ratio),
 //    capped at kMaxSilentRawScore: without a test, a pair as strong as the
 //    images' best pairs is probably, not certainly, true.
-// Where the test speaks, the probability combines the raw score with three
+// Where the test speaks, the probability combines the raw score with two
 // more measurements of the pair in a logistic model: how well the pair
 // joins the two models (the smaller share of its inliers that are model
 // points and agree with the joining depth; a doppelganger of a symmetric
-// object joins them with a pose far off, so few agree), the relative
+// object joins them with a pose far off, so few agree) and the relative
 // burstiness-weighted support (the matches of repeated structure are
 // bursty, so a doppelganger is weaker, once burstiness is discounted, than
-// each image's strongest pair; Jegou, Douze, Schmid, CVPR 2009) and the
-// shortfall of the points found against the detection rate the models show
-// on their own points (PairFeatures::FoundShortfall: the binomial tail of
-// finding so few of the points predicted visible; the missing
-// correspondences of Cui & Tan, ICCV 2015, as a significance rather than a
-// share, so that a handful of predictions none of which is found counts
-// while a low detection rate, as in real photos, does not). Silent
+// each image's strongest pair; Jegou, Douze, Schmid, CVPR 2009). Silent
 // pairs are mapped by isotonic regression of the raw score. Both are fitted
 // on the tuning half of the synthetic scenes (odd seeds, 40 images, the
 // families and the fixed scenes that hold doppelgangers; each instance and
 // each class weighted with the share of true pairs among the pairs the
 // hierarchy verified there, 0.58):
 // `scripts/fit_score_calibration.py` reproduces the model and the table
-// from the TSV files of `bench/cue_study` (the table from the evidence of
-// its own date), and docs/decisions.md records the fits and the held-out
-// results. The score therefore means the same as
+// from the TSV files of `bench/cue_study`, and docs/decisions.md records
+// the fit and the held-out results. The score therefore means the same as
 // a learned plug-in's probability, and one threshold
 // (--HiSfM.verify_threshold) applies to every verifier.
 #pragma once
@@ -60,8 +53,6 @@ constexpr int kMinUniquePoints = 5;
 constexpr double kMinRepeatabilityOverChance = 2.0;
 /// Largest raw score of a pair the test could not judge.
 constexpr double kMaxSilentRawScore = 0.75;
-/// Clamp of FoundShortfall's log10 tail probability.
-constexpr double kShortfallLog10Clamp = 10.0;
 /// Bins of the silent pairs' calibration table.
 constexpr int kScoreBins = 20;
 
@@ -91,29 +82,13 @@ struct PairFeatures {
   bool Speaks() const;
   /// The raw evidence in [0, 1] (see the file comment).
   double RawScore() const;
-  /// How often the pair's models find their own unmatched points
-  /// (models_found / models_checked; 0 if none was checked).
-  double Repeatability() const;
-  /// How surprising the points found in the other side's images are for a
-  /// true pair: log10 P(X <= num_found) for X ~ Binomial(num_visible,
-  /// Repeatability()), clamped to [-kShortfallLog10Clamp, 0] and mapped to
-  /// [0, 1] (1: no shortfall; 0: found at most what a true pair finds once
-  /// in 10^kShortfallLog10Clamp). 1 if nothing was predicted visible or
-  /// everything was found. Models that checked none of their points have
-  /// repeatability 0, so finding nothing is no shortfall; models that found
-  /// all of the few they checked make every miss count (the fit saw both).
-  /// A point counts as found in any of the images that should see it, at
-  /// the rate of one view: lenient towards true pairs (on cup, true pairs
-  /// find a median 1.1 times visible x repeatability).
-  double FoundShortfall() const;
 };
 
 /// Coefficients of the judged pairs' logistic model:
 /// P(true) = 1 / (1 + exp(-z)) with z = intercept + raw * RawScore() +
-/// agreement * agreement + relative_burstiness * relative_burstiness +
-/// shortfall * FoundShortfall().
+/// agreement * agreement + relative_burstiness * relative_burstiness.
 struct JudgedScoreModel {
-  /// Log-odds of a pair with all four inputs at 0.
+  /// Log-odds of a pair with all three measurements at 0.
   double intercept = 0;
   /// Weight of PairFeatures::RawScore().
   double raw = 0;
@@ -121,8 +96,6 @@ struct JudgedScoreModel {
   double agreement = 0;
   /// Weight of PairFeatures::relative_burstiness (clamped to [0, 1]).
   double relative_burstiness = 0;
-  /// Weight of PairFeatures::FoundShortfall().
-  double shortfall = 0;
 };
 
 /// The calibrated score in [0, 1]: for judged pairs the logistic model, for

@@ -48,7 +48,6 @@ TEST(PairScore, JudgedModelRewardsEveryMeasurement) {
   EXPECT_GT(m.raw, 0.0);
   EXPECT_GE(m.agreement, 0.0);
   EXPECT_GE(m.relative_burstiness, 0.0);
-  EXPECT_GE(m.shortfall, 0.0);
 }
 
 // A judged pair with raw score 0.6 (16 of 40 unique points missing).
@@ -63,13 +62,8 @@ TEST(PairScore, JudgedScoreIsTheLogisticModel) {
   const JudgedScoreModel& m = JudgedModel();
   for (const double agreement : {0.0, 0.3, 1.0}) {
     for (const double burstiness : {0.05, 0.5, 1.0}) {
-      // Raw06: 0 of 16 visible points found at repeatability 0.5, a tail
-      // of 2^-16.
-      const double shortfall =
-          1.0 - 16 * std::log10(2.0) / kShortfallLog10Clamp;
       const double z = m.intercept + m.raw * 0.6 + m.agreement * agreement +
-                       m.relative_burstiness * burstiness +
-                       m.shortfall * shortfall;
+                       m.relative_burstiness * burstiness;
       EXPECT_NEAR(CalibratedPairScore(Raw06(agreement, burstiness)),
                   1 / (1 + std::exp(-z)), 1e-12)
           << agreement << " " << burstiness;
@@ -78,45 +72,6 @@ TEST(PairScore, JudgedScoreIsTheLogisticModel) {
   // Out-of-range measurements are clamped to [0, 1].
   EXPECT_DOUBLE_EQ(CalibratedPairScore(Raw06(1.7, -0.2)),
                    CalibratedPairScore(Raw06(1.0, 0.0)));
-}
-
-TEST(PairScore, FoundShortfallIsTheBinomialTail) {
-  // The models find half of their own points (Judged).
-  EXPECT_DOUBLE_EQ(Judged(40, 10, 5).Repeatability(), 0.5);
-  // Nothing predicted visible: no evidence of a shortfall.
-  EXPECT_DOUBLE_EQ(Judged(40, 0, 0).FoundShortfall(), 1.0);
-  // All found: P(X <= n) = 1.
-  EXPECT_NEAR(Judged(40, 6, 6).FoundShortfall(), 1.0, 1e-12);
-  // 0 of 4 found: P = 0.5^4.
-  EXPECT_NEAR(Judged(40, 4, 0).FoundShortfall(),
-              1.0 - 4 * std::log10(2.0) / kShortfallLog10Clamp, 1e-12);
-  // 1 of 3 found: P(X <= 1) = (1 + 3) / 8.
-  EXPECT_NEAR(Judged(40, 3, 1).FoundShortfall(),
-              1.0 + std::log10(0.5) / kShortfallLog10Clamp, 1e-12);
-  // Far past the clamp: 0 of 60 at 0.5 is 10^-18.
-  EXPECT_DOUBLE_EQ(Judged(100, 60, 0).FoundShortfall(), 0.0);
-  // Large counts stay finite and in [0, 1]: 400 of 1000 at 0.45 is a
-  // tail of about 10^-3.1.
-  PairFeatures large = Judged(2000, 1000, 400);
-  large.models_checked = 100;
-  large.models_found = 45;
-  EXPECT_GT(large.FoundShortfall(), 0.5);
-  EXPECT_LT(large.FoundShortfall(), 0.8);
-  // Models that checked nothing: repeatability 0, no shortfall.
-  PairFeatures unchecked = Judged(40, 10, 0);
-  unchecked.models_checked = 0;
-  unchecked.models_found = 0;
-  EXPECT_NEAR(unchecked.FoundShortfall(), 1.0, 1e-5);
-  // Fewer found for as many visible is more surprising.
-  EXPECT_GT(Judged(40, 20, 10).FoundShortfall(),
-            Judged(40, 20, 4).FoundShortfall());
-  // It lowers the score of a pair with the same raw score (missing over
-  // unique): 0 of 24 found (as by cup's doppelganger 39-61) against 12 of
-  // 24, both 1 - 24 / 488 = 1 - 12 / 244.
-  const PairFeatures found_none = Judged(488, 24, 0);
-  const PairFeatures found_half = Judged(244, 24, 12);
-  EXPECT_DOUBLE_EQ(found_none.RawScore(), found_half.RawScore());
-  EXPECT_LT(CalibratedPairScore(found_none), CalibratedPairScore(found_half));
 }
 
 TEST(PairScore, PoorJoinOrBurstySupportLowersTheScore) {
