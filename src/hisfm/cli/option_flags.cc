@@ -103,6 +103,10 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         o->verifier.burstiness_weights,
         "builtin verifier: rank pairs by burstiness-weighted support "
         "instead of inlier count");
+  visit("--HiSfM.verify_num_threads",
+        o->verifier.multiview.num_threads,
+        "builtin verifier: threads that judge pairs (0 = one per core; "
+        "the scores do not depend on it)");
   visit("--HiSfM.min_relative_coverage",
         o->verifier.builtin.min_relative_coverage,
         "context verifier: a bridge's inlier coverage relative to "

@@ -25,6 +25,11 @@ GeometryCache::GeometryCache(const Database& database,
 }
 
 const ImageGeometry& GeometryCache::Image(ImageId image_id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return ImageLocked(image_id);
+}
+
+const ImageGeometry& GeometryCache::ImageLocked(ImageId image_id) {
   auto it = images_.find(image_id);
   if (it != images_.end()) return *it->second;
   auto cam = camera_of_image_.find(image_id);
@@ -59,12 +64,14 @@ bool GeometryCache::HasPair(ImageId a, ImageId b) const {
 
 std::shared_ptr<const PairGeometry> GeometryCache::Stored(
     const ImagePair& pair) {
+  std::unique_lock<std::mutex> lock(mutex_);
   auto it = stored_.find(pair);
   if (it != stored_.end()) return it->second;
   const TwoViewGeometry g =
       database_.ReadTwoViewGeometry(pair.image_id1, pair.image_id2);
-  const ImageGeometry& im1 = Image(pair.image_id1);
-  const ImageGeometry& im2 = Image(pair.image_id2);
+  const ImageGeometry& im1 = ImageLocked(pair.image_id1);
+  const ImageGeometry& im2 = ImageLocked(pair.image_id2);
+  lock.unlock();
   auto out = std::make_shared<PairGeometry>();
   out->from = pair.image_id1;
   out->to = pair.image_id2;
@@ -89,6 +96,7 @@ std::shared_ptr<const PairGeometry> GeometryCache::Stored(
   const double focal =
       0.5 * (im1.camera.MeanFocal() + im2.camera.MeanFocal());
   out->hypotheses = EstimateRelativePose(E, x1, x2, focal, pose_options);
+  lock.lock();
   return stored_.emplace(pair, out).first->second;
 }
 
@@ -96,6 +104,7 @@ std::shared_ptr<const PairGeometry> GeometryCache::Pair(ImageId a, ImageId b) {
   const ImagePair pair(a, b);
   std::shared_ptr<const PairGeometry> stored = Stored(pair);
   if (a == pair.image_id1) return stored;
+  std::lock_guard<std::mutex> lock(mutex_);
   auto it = reversed_.find(pair);
   if (it != reversed_.end()) return it->second;
   auto out = std::make_shared<PairGeometry>();

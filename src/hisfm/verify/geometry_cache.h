@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <mutex>
 #include <unordered_map>
 #include <vector>
 
@@ -57,8 +58,12 @@ struct PairGeometry {
   static constexpr int32_t kNoMatch = -1;
 };
 
-/// Lazily reads and caches image and pair geometry. Not thread-safe. The
-/// database and the graph must outlive the cache.
+/// Lazily reads and caches image and pair geometry. Safe to use from several
+/// threads at once: the database is read under a lock, and a pair's poses are
+/// estimated outside it (two threads asking for the same new pair may both
+/// estimate it; the estimate is seeded by the pair, so both are the same and
+/// the first stored is kept). The database and the graph must outlive the
+/// cache.
 class GeometryCache {
  public:
   /// `graph` names the pairs that exist (its edges, any weight).
@@ -69,6 +74,7 @@ class GeometryCache {
   /// before the first Image().
   void SetKeypointDegrees(
       std::unordered_map<ImageId, std::vector<uint16_t>> degrees) {
+    std::lock_guard<std::mutex> lock(mutex_);
     degrees_ = std::move(degrees);
   }
   /// The image's geometry (throws hisfm::Error for an unknown image).
@@ -83,10 +89,15 @@ class GeometryCache {
  private:
   // The stored orientation (smaller id first), poses included.
   std::shared_ptr<const PairGeometry> Stored(const ImagePair& pair);
+  // Image() with mutex_ held.
+  const ImageGeometry& ImageLocked(ImageId image_id);
 
   const Database& database_;
   const ViewGraph& graph_;
   GeometryCacheOptions options_;
+  // Guards the database and the maps below (an ImageGeometry and a
+  // PairGeometry do not change once stored).
+  std::mutex mutex_;
   std::unordered_map<CameraId, DatabaseCamera> cameras_;
   std::unordered_map<ImageId, CameraId> camera_of_image_;
   std::unordered_map<ImageId, std::unique_ptr<ImageGeometry>> images_;

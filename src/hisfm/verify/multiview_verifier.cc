@@ -5,6 +5,7 @@
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/interrupt.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/verify/match_burstiness.h"
 
 namespace hisfm {
@@ -16,6 +17,7 @@ void MultiViewVerifierOptions::Check() const {
   HISFM_CHECK_OPTION(other_side_ratio,
                      other_side_ratio >= 0.0 && other_side_ratio <= 1.0,
                      "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(num_threads, num_threads >= 0, ">= 0");
 }
 
 MultiViewVerifier::MultiViewVerifier(const Database& database,
@@ -38,26 +40,43 @@ const LocalModel& MultiViewVerifier::EgoModel(ImageId ego, ImageId other) {
   std::vector<ImageId> candidates =
       SideNeighbours(ranking_, ego, other, count, options_.other_side_ratio);
   auto key = std::make_pair(ego, std::move(candidates));
-  auto it = models_.find(key);
-  if (it != models_.end()) return it->second;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = models_.find(key);
+    if (it != models_.end()) return it->second;
+  }
   LocalModel model =
       BuildEgoModelFrom(cache_, ego, key.second, options_.local_model);
+  std::lock_guard<std::mutex> lock(mutex_);
   return models_.emplace(std::move(key), std::move(model)).first->second;
 }
 
-const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {
+const EdgeEvidence* MultiViewVerifier::FindEvidence(
+    const ImagePair& pair) const {
+  std::lock_guard<std::mutex> lock(mutex_);
   auto it = evidence_.find(pair);
-  if (it != evidence_.end()) return it->second;
+  return it == evidence_.end() ? nullptr : &it->second;
+}
+
+const EdgeEvidence& MultiViewVerifier::Evaluate(const ImagePair& pair) {
+  return EvaluatePair(pair, /*parallel_models=*/true);
+}
+
+const EdgeEvidence& MultiViewVerifier::EvaluatePair(const ImagePair& pair,
+                                                    bool parallel_models) {
+  if (const EdgeEvidence* known = FindEvidence(pair)) return *known;
   // Verification can take minutes on large scenes: Ctrl-C stops it here.
   ThrowIfInterrupted();
   const ImageId i = pair.image_id1;
   const ImageId j = pair.image_id2;
-  const LocalModel& model_i = EgoModel(i, j);
-  const LocalModel& model_j = EgoModel(j, i);
-  return evidence_
-      .emplace(pair,
-               TestEdge(cache_, model_i, model_j, i, j, options_.edge_test))
-      .first->second;
+  const LocalModel* models[2] = {nullptr, nullptr};
+  ParallelFor(2, parallel_models ? options_.num_threads : 1, [&](size_t s) {
+    models[s] = s == 0 ? &EgoModel(i, j) : &EgoModel(j, i);
+  });
+  EdgeEvidence evidence =
+      TestEdge(cache_, *models[0], *models[1], i, j, options_.edge_test);
+  std::lock_guard<std::mutex> lock(mutex_);
+  return evidence_.emplace(pair, std::move(evidence)).first->second;
 }
 
 namespace {
@@ -79,7 +98,13 @@ double RelativeWeight(const ViewGraph& graph, const ImagePair& pair) {
 }  // namespace
 
 PairFeatures MultiViewVerifier::Features(const ImagePair& pair) {
-  PairFeatures f = PairFeatures::FromEvidence(Evaluate(pair));
+  return FeaturesOf(pair, /*parallel_models=*/true);
+}
+
+PairFeatures MultiViewVerifier::FeaturesOf(const ImagePair& pair,
+                                           bool parallel_models) {
+  PairFeatures f =
+      PairFeatures::FromEvidence(EvaluatePair(pair, parallel_models));
   f.relative_burstiness = RelativeWeight(ranking_, pair);
   return f;
 }
@@ -95,9 +120,9 @@ bool MultiViewVerifier::RelativeRotation(ImageId from, ImageId to,
       cache_.Pair(pair.image_id1, pair.image_id2);
   if (geometry->hypotheses.empty()) return false;
   size_t h = 0;
-  const auto it = evidence_.find(pair);
-  if (it != evidence_.end() && it->second.hypothesis >= 0) {
-    h = static_cast<size_t>(it->second.hypothesis);
+  const EdgeEvidence* evidence = FindEvidence(pair);
+  if (evidence && evidence->hypothesis >= 0) {
+    h = static_cast<size_t>(evidence->hypothesis);
   }
   // The geometry is oriented from the smaller id to the larger.
   const Eigen::Quaterniond r2_from_r1 =
@@ -125,9 +150,13 @@ double MultiViewVerifier::CycleRotationErrorDeg(
 
 std::vector<double> MultiViewVerifier::Score(
     const std::vector<ImagePair>& pairs) {
-  std::vector<double> scores;
-  scores.reserve(pairs.size());
-  for (const ImagePair& p : pairs) scores.push_back(ScoreOf(p));
+  if (pairs.size() == 1) return {ScoreOf(pairs[0])};
+  // Each pair on one thread, its two models built one after the other.
+  std::vector<double> scores(pairs.size());
+  ParallelFor(pairs.size(), options_.num_threads, [&](size_t k) {
+    scores[k] =
+        CalibratedPairScore(FeaturesOf(pairs[k], /*parallel_models=*/false));
+  });
   return scores;
 }
 

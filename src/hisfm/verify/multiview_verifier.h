@@ -15,6 +15,7 @@
 
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -42,12 +43,18 @@ struct MultiViewVerifierOptions {
   /// neighbours x with w(ego, x) < other_side_ratio * w(other, x), by the
   /// ranking weights. 0: each model only leaves out the other image.
   double other_side_ratio = 0.5;
+  /// Threads that judge pairs (0 = one per core): the pairs of a batch
+  /// (Score) in parallel, and a lone pair's two ego models in parallel.
+  /// Scores do not depend on it.
+  int num_threads = 0;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
 };
 
-/// The built-in verifier (Name() "builtin").
+/// The built-in verifier (Name() "builtin"). Its methods may be called from
+/// several threads at once; a pair's score does not depend on which pairs
+/// were judged before it.
 class MultiViewVerifier : public BridgeScorer {
  public:
   /// `graph` holds every verified pair (it names the pairs that exist and
@@ -57,6 +64,7 @@ class MultiViewVerifier : public BridgeScorer {
                     const MultiViewVerifierOptions& options = {});
 
   std::string Name() const override { return "builtin"; }
+  /// Scores the pairs on up to num_threads threads.
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
 
   /// The evidence on a pair (computed once; `pair` must be an edge).
@@ -88,9 +96,21 @@ class MultiViewVerifier : public BridgeScorer {
   /// rank_by_burstiness, else the input graph).
   const ViewGraph& RankingGraph() const { return ranking_; }
   /// Pairs evaluated so far.
-  size_t NumEvaluated() const { return evidence_.size(); }
+  size_t NumEvaluated() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return evidence_.size();
+  }
 
  private:
+  // Evaluate(), building the two ego models on two threads when
+  // `parallel_models` (and num_threads allows).
+  const EdgeEvidence& EvaluatePair(const ImagePair& pair,
+                                   bool parallel_models);
+  // Features(), with EvaluatePair's `parallel_models`.
+  PairFeatures FeaturesOf(const ImagePair& pair, bool parallel_models);
+  // The evidence of a pair evaluated before, else null.
+  const EdgeEvidence* FindEvidence(const ImagePair& pair) const;
+
   const ViewGraph& graph_;
   MultiViewVerifierOptions options_;
   // The graph by which ego models rank neighbours.
@@ -99,6 +119,11 @@ class MultiViewVerifier : public BridgeScorer {
   // Ego models by ego image and candidate neighbours.
   std::map<std::pair<ImageId, std::vector<ImageId>>, LocalModel> models_;
   std::map<ImagePair, EdgeEvidence> evidence_;
+  // Guards models_ and evidence_ (std::map: what they hold never moves, so
+  // references to it stay valid). Models and evidence are computed outside
+  // the lock; when two threads compute the same one, the first stored is
+  // kept (both are the same).
+  mutable std::mutex mutex_;
 };
 
 }  // namespace hisfm

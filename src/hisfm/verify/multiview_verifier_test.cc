@@ -139,6 +139,43 @@ TEST_F(MultiViewVerifierTest, ScoreIsScoreOfInOrderAndComputedOnce) {
   EXPECT_EQ(verifier_->Name(), "builtin");
 }
 
+// A pair's score and evidence do not depend on the number of threads, on
+// batching or on the order pairs are met: one thread asked pair by pair
+// agrees exactly with four threads scoring one reversed batch, and with
+// four threads evaluating pair by pair (each pair's two models in
+// parallel).
+TEST_F(MultiViewVerifierTest, ScoresDoNotDependOnThreadsOrOrder) {
+  std::vector<ImagePair> pairs = street_->graph.Pairs();
+  pairs.resize(std::min<size_t>(pairs.size(), 24));
+  MultiViewVerifierOptions one;
+  one.num_threads = 1;
+  MultiViewVerifierOptions four;
+  four.num_threads = 4;
+  MultiViewVerifier serial(street_->db, street_->graph, one);
+  MultiViewVerifier batched(street_->db, street_->graph, four);
+  MultiViewVerifier paired(street_->db, street_->graph, four);
+  std::vector<ImagePair> reversed(pairs.rbegin(), pairs.rend());
+  const std::vector<double> batch = batched.Score(reversed);
+  ASSERT_EQ(batch.size(), pairs.size());
+  size_t judged = 0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const double expected = serial.Score({pairs[k]}).front();
+    EXPECT_EQ(batch[pairs.size() - 1 - k], expected) << k;
+    EXPECT_EQ(paired.ScoreOf(pairs[k]), expected) << k;
+    const EdgeEvidence& a = serial.Evaluate(pairs[k]);
+    const EdgeEvidence& b = batched.Evaluate(pairs[k]);
+    EXPECT_EQ(a.judged, b.judged);
+    EXPECT_EQ(a.hypothesis, b.hypothesis);
+    EXPECT_EQ(a.num_visible, b.num_visible);
+    EXPECT_EQ(a.num_found, b.num_found);
+    EXPECT_EQ(a.consistent, b.consistent);
+    judged += a.judged;
+  }
+  // The comparison covers pairs the edge test judged, not only silent ones.
+  EXPECT_GT(judged, pairs.size() / 4);
+  EXPECT_EQ(batched.NumEvaluated(), pairs.size());
+}
+
 TEST_F(MultiViewVerifierTest, RankingGraphHasTheSameImagesAndEdges) {
   const ViewGraph& ranking = verifier_->RankingGraph();
   EXPECT_EQ(ranking.Images(), street_->graph.Images());
@@ -289,6 +326,9 @@ TEST(MultiViewVerifierOptions, CheckRejectsOutOfRangeValues) {
   o.other_side_ratio = 1.5;
   EXPECT_THROW(o.Check(), Error);
   o.other_side_ratio = -0.1;
+  EXPECT_THROW(o.Check(), Error);
+  o = MultiViewVerifierOptions();
+  o.num_threads = -1;
   EXPECT_THROW(o.Check(), Error);
 }
 

@@ -21,7 +21,6 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
                      std::vector<ViewGraphEdge>* reserve,
                      double reserve_threshold) {
   if (count <= 0) return 0;
-  size_t num_scored = 0;
   std::unordered_map<ImageId, size_t> component_of;
   for (size_t c = 0; c < hierarchy->components.size(); ++c) {
     for (const ImageId id : hierarchy->components[c].images) {
@@ -30,8 +29,16 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
   }
   std::set<ImagePair> present;
   for (const ImagePair& p : hierarchy->Edges()) present.insert(p);
-  // Pairs already scored here (a pair can be among the strongest of both
-  // its images).
+  // The pairs to score, in the order they are met (a pair can be among the
+  // strongest of both its images: it is scored once), with the image that
+  // met it and its component.
+  struct Candidate {
+    size_t edge;
+    ImageId id;
+    size_t component;
+  };
+  std::vector<Candidate> candidates;
+  std::vector<ImagePair> pairs;
   std::set<ImagePair> judged;
   for (size_t i = 0; i < graph.NumImages(); ++i) {
     const ImageId id = graph.Images()[i];
@@ -39,37 +46,47 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
     if (ci == component_of.end()) continue;
     for (const size_t e : StrongestEdges(graph, i, count)) {
       const ViewGraphEdge& edge = graph.Edges()[e];
-      const ImageId other = graph.OtherEnd(e, id);
-      auto co = component_of.find(other);
+      auto co = component_of.find(graph.OtherEnd(e, id));
       if (co == component_of.end() || co->second != ci->second ||
           present.count(edge.pair) || !judged.insert(edge.pair).second) {
         continue;
       }
-      const double score = verifier.Score({edge.pair}).front();
-      ++num_scored;
-      if (score < threshold) {
-        if (reserve && score >= reserve_threshold) {
-          reserve->push_back(edge);
-        }
-        continue;
-      }
-      hierarchy->support_edges.push_back(edge);
-      HierarchyComponent& comp = hierarchy->components[ci->second];
-      comp.edges.insert(
-          std::lower_bound(comp.edges.begin(), comp.edges.end(), edge.pair),
-          edge.pair);
-      if (std::binary_search(comp.skeleton_images.begin(),
-                             comp.skeleton_images.end(), id) &&
-          std::binary_search(comp.skeleton_images.begin(),
-                             comp.skeleton_images.end(), other)) {
-        comp.skeleton_edges.insert(
-            std::lower_bound(comp.skeleton_edges.begin(),
-                             comp.skeleton_edges.end(), edge.pair),
-            edge.pair);
-      }
+      candidates.push_back({e, id, ci->second});
+      pairs.push_back(edge.pair);
     }
   }
-  return num_scored;
+  if (pairs.empty()) return 0;
+  // One batch: the scorer may judge the pairs in parallel.
+  const std::vector<double> scores = verifier.Score(pairs);
+  ThrowUnless(scores.size() == pairs.size(),
+              "verifier returned a wrong number of scores");
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    const ViewGraphEdge& edge = graph.Edges()[candidates[k].edge];
+    const ImageId id = candidates[k].id;
+    const ImageId other = graph.OtherEnd(candidates[k].edge, id);
+    const double score = scores[k];
+    if (score < threshold) {
+      if (reserve && score >= reserve_threshold) {
+        reserve->push_back(edge);
+      }
+      continue;
+    }
+    hierarchy->support_edges.push_back(edge);
+    HierarchyComponent& comp = hierarchy->components[candidates[k].component];
+    comp.edges.insert(
+        std::lower_bound(comp.edges.begin(), comp.edges.end(), edge.pair),
+        edge.pair);
+    if (std::binary_search(comp.skeleton_images.begin(),
+                           comp.skeleton_images.end(), id) &&
+        std::binary_search(comp.skeleton_images.begin(),
+                           comp.skeleton_images.end(), other)) {
+      comp.skeleton_edges.insert(
+          std::lower_bound(comp.skeleton_edges.begin(),
+                           comp.skeleton_edges.end(), edge.pair),
+          edge.pair);
+    }
+  }
+  return pairs.size();
 }
 
 VerifiedHierarchy BuildVerifiedHierarchy(
