@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -94,6 +95,19 @@ CommandVerifier::CommandVerifier(std::string command, size_t batch_size,
 }
 
 std::vector<double> CommandVerifier::Score(
+    const std::vector<ImagePair>& pairs) {
+  std::vector<double> scores;
+  scores.reserve(pairs.size());
+  for (size_t begin = 0; begin < pairs.size(); begin += batch_size_) {
+    const size_t end = std::min(pairs.size(), begin + batch_size_);
+    const std::vector<double> batch = ScoreBatch(
+        std::vector<ImagePair>(pairs.begin() + begin, pairs.begin() + end));
+    scores.insert(scores.end(), batch.begin(), batch.end());
+  }
+  return scores;
+}
+
+std::vector<double> CommandVerifier::ScoreBatch(
     const std::vector<ImagePair>& pairs) {
   namespace fs = std::filesystem;
   char dir_template[] = "/tmp/hisfm-verifier-XXXXXX";

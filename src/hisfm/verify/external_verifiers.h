@@ -28,7 +28,8 @@ class ScoresFileVerifier : public BridgeScorer {
   std::map<std::pair<std::string, std::string>, double> scores_;
 };
 
-/// Runs `/bin/sh -c "CMD INPUT OUTPUT"` for each batch: INPUT holds one line
+/// Runs `/bin/sh -c "CMD INPUT OUTPUT"` for each batch of at most
+/// `batch_size` pairs (a longer list is cut into such batches): INPUT holds one line
 /// `name1 name2` per bridge, and the command writes `name1 name2 probability`
 /// lines to OUTPUT. The environment variable HISFM_IMAGE_PATH names the photo
 /// folder. A failing command, a missing pair or an unparsable line is an
@@ -42,6 +43,9 @@ class CommandVerifier : public BridgeScorer {
   size_t PreferredBatchSize() const override { return batch_size_; }
 
  private:
+  // One call of the command on at most batch_size_ pairs.
+  std::vector<double> ScoreBatch(const std::vector<ImagePair>& pairs);
+
   std::string command_;
   size_t batch_size_;
   VerifierContext context_;

@@ -77,6 +77,11 @@ TEST(CommandVerifier, RunsTheCommandOnBatches) {
       v->Score({ImagePair(1, 2), ImagePair(2, 3), ImagePair(1, 3)});
   EXPECT_EQ(s, (std::vector<double>{0.8, 0.1, 0.1}));
   v->Score({ImagePair(1, 2)});
+  // Six pairs are cut into calls of at most four, scores kept in order.
+  const std::vector<double> six =
+      v->Score({ImagePair(1, 2), ImagePair(2, 3), ImagePair(1, 3),
+                ImagePair(1, 2), ImagePair(1, 3), ImagePair(1, 2)});
+  EXPECT_EQ(six, (std::vector<double>{0.8, 0.1, 0.1, 0.8, 0.1, 0.8}));
   std::ifstream calls(tmp / "calls.txt");
   std::string line;
   int n = 0;
@@ -84,7 +89,7 @@ TEST(CommandVerifier, RunsTheCommandOnBatches) {
     EXPECT_EQ(line, "/photos");
     ++n;
   }
-  EXPECT_EQ(n, 2);
+  EXPECT_EQ(n, 4);
 }
 
 TEST(CommandVerifier, FailingOrSilentCommandIsAnError) {

@@ -62,8 +62,9 @@ struct PairGeometry {
 /// threads at once: the database is read under a lock, and a pair's poses are
 /// estimated outside it (two threads asking for the same new pair may both
 /// estimate it; the estimate is seeded by the pair, so both are the same and
-/// the first stored is kept). The database and the graph must outlive the
-/// cache.
+/// the first stored is kept). The lock is the cache's own: the database must
+/// not be used elsewhere while the cache is (io/database.h: one thread per
+/// Database). The database and the graph must outlive the cache.
 class GeometryCache {
  public:
   /// `graph` names the pairs that exist (its edges, any weight).

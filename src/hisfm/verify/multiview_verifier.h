@@ -53,8 +53,10 @@ struct MultiViewVerifierOptions {
 };
 
 /// The built-in verifier (Name() "builtin"). Its methods may be called from
-/// several threads at once; a pair's score does not depend on which pairs
-/// were judged before it.
+/// several threads at once, provided nothing else uses its database
+/// meanwhile (geometry_cache.h). A pair's score does not depend on which
+/// pairs were judged before it; RelativeRotation and CycleRotationErrorDeg
+/// do (they use an evaluated pair's accepted hypothesis).
 class MultiViewVerifier : public BridgeScorer {
  public:
   /// `graph` holds every verified pair (it names the pairs that exist and
