@@ -150,12 +150,12 @@ double MultiViewVerifier::CycleRotationErrorDeg(
 
 std::vector<double> MultiViewVerifier::Score(
     const std::vector<ImagePair>& pairs) {
-  if (pairs.size() == 1) return {ScoreOf(pairs[0])};
-  // Each pair on one thread, its two models built one after the other.
+  // Each pair on one thread; a lone pair builds its two models in parallel
+  // instead.
+  const bool parallel_models = pairs.size() == 1;
   std::vector<double> scores(pairs.size());
   ParallelFor(pairs.size(), options_.num_threads, [&](size_t k) {
-    scores[k] =
-        CalibratedPairScore(FeaturesOf(pairs[k], /*parallel_models=*/false));
+    scores[k] = CalibratedPairScore(FeaturesOf(pairs[k], parallel_models));
   });
   return scores;
 }
