@@ -1109,12 +1109,14 @@ FeaturePipelineResult RunFeaturePipeline(
   fs::create_directories(workspace_path + "/logs", ec);
   ThrowUnless(!ec, StrCat("cannot create workspace ", workspace_path, ": ",
                           ec.message()));
-  PipelineRun run{options};
-  run.ws = fs::absolute(workspace_path).lexically_normal();
-  run.images_abs = fs::absolute(image_path).lexically_normal();
-  run.list_path = run.ws + "/image_list.txt";
-  run.database = run.ws + "/database.db";
-  run.result = &result;
+  const std::string ws = fs::absolute(workspace_path).lexically_normal();
+  PipelineRun run{options,
+                  ws,
+                  fs::absolute(image_path).lexically_normal(),
+                  ws + "/image_list.txt",
+                  ws + "/database.db",
+                  nullptr,
+                  &result};
 
   result.scan.skipped = RecordSkippedFiles(scan.skipped, run.ws,
                                            run.images_abs);
