@@ -61,6 +61,10 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.rank_tiers", h.skeleton.rank_tiers,
         "Trees take bridges by neighbour rank tiers 1..N before weight "
         "(0: by weight, as Algorithm 1)");
+  visit("--HiSfM.intra_consistent_weights",
+        h.skeleton.intra_consistent_weights,
+        "Join a community's skeletal images by weights scaled by the share "
+        "of inliers that agree with the pose the verifier accepts (builtin)");
   visit("--HiSfM.leaf_edges", h.leaves.leaf_edges,
         "Edges per leaf to skeletal images of its community");
   visit("--HiSfM.leaf_leaf_edges", h.leaves.leaf_leaf_edges,

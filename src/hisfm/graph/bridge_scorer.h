@@ -36,6 +36,13 @@ class BridgeScorer {
     (void)cycle;
     return -1.0;
   }
+  /// The share, in [0, 1], of the pair's inliers that agree with the
+  /// relative pose the scorer accepts for it; 1 if the scorer cannot tell
+  /// (the default). May be as costly as a score.
+  virtual double ConsistentShare(const ImagePair& pair) {
+    (void)pair;
+    return 1.0;
+  }
 };
 
 /// A non-owning adapter: forwards every call to a scorer the caller keeps
@@ -56,6 +63,9 @@ class BorrowedScorer : public BridgeScorer {
     return scorer_->CycleRotationErrorDeg(cycle);
   }
 
+  double ConsistentShare(const ImagePair& pair) override {
+    return scorer_->ConsistentShare(pair);
+  }
  protected:
   /// The scorer every call is forwarded to.
   BridgeScorer* Borrowed() const { return scorer_; }

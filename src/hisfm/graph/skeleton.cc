@@ -179,13 +179,61 @@ BridgeRecord MakeRecord(const Bridge& b, double score, bool accepted,
   return r;
 }
 
+// The maximum spanning tree of one community's induced subgraph (`edges`,
+// indices into graph.Edges()), as adjacency lists over the community's
+// members (`local` maps an image to its member index). An edge weighs its
+// view-graph weight times scorer->ConsistentShare when `scorer` is given:
+// Kruskal over a max-heap keyed by the weight as far as it is known (the
+// view-graph weight bounds the scaled one from above), so a share is asked
+// only of an edge that reaches the top of the heap while its images are
+// still apart, and once.
+std::vector<std::vector<std::pair<size_t, size_t>>> CommunitySpanningTree(
+    const ViewGraph& graph, const std::vector<size_t>& edges,
+    const std::unordered_map<ImageId, size_t>& local, size_t num_members,
+    BridgeScorer* scorer) {
+  struct Entry {
+    double weight;
+    bool exact;
+    size_t edge;
+    bool operator<(const Entry& o) const {
+      if (weight != o.weight) return weight < o.weight;
+      if (exact != o.exact) return !exact;  // an exact weight first on ties
+      return edge > o.edge;
+    }
+  };
+  std::priority_queue<Entry> heap;
+  for (size_t e : edges) {
+    heap.push({static_cast<double>(graph.Edges()[e].weight), scorer == nullptr,
+               e});
+  }
+  UnionFind uf(num_members);
+  std::vector<std::vector<std::pair<size_t, size_t>>> tree(num_members);
+  while (!heap.empty()) {
+    const Entry top = heap.top();
+    heap.pop();
+    const ImagePair& p = graph.Edges()[top.edge].pair;
+    const size_t a = local.at(p.image_id1);
+    const size_t b = local.at(p.image_id2);
+    if (uf.Connected(a, b)) continue;
+    if (!top.exact) {
+      const double share = std::clamp(scorer->ConsistentShare(p), 0.0, 1.0);
+      heap.push({top.weight * share, true, top.edge});
+      continue;
+    }
+    uf.Union(a, b);
+    tree[a].push_back({b, top.edge});
+    tree[b].push_back({a, top.edge});
+  }
+  return tree;
+}
+
 // Joins the skeletal images of each community: the maximum spanning tree of
-// the community's induced subgraph, pruned of non-skeletal leaves, i.e. the
-// smallest subtree that connects them. A community with no skeletal image
-// keeps its whole maximum spanning tree.
+// the community's induced subgraph (CommunitySpanningTree), pruned of
+// non-skeletal leaves, i.e. the smallest subtree that connects them. A
+// community with no skeletal image keeps its whole maximum spanning tree.
 std::vector<ViewGraphEdge> ConnectSkeletalImages(
     const ViewGraph& graph, const Communities& communities,
-    const std::set<ImageId>& skeletal) {
+    const std::set<ImageId>& skeletal, BridgeScorer* scorer) {
   std::vector<ViewGraphEdge> out;
   std::vector<std::vector<size_t>> community_edges(
       communities.NumCommunities());
@@ -207,23 +255,9 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
     };
     std::unordered_map<ImageId, size_t> local;
     for (size_t i = 0; i < members.size(); ++i) local[members[i]] = i;
-    std::vector<size_t>& edges = community_edges[c];
-    std::sort(edges.begin(), edges.end(), [&](size_t a, size_t b) {
-      const auto& ea = graph.Edges()[a];
-      const auto& eb = graph.Edges()[b];
-      return ea.weight > eb.weight || (ea.weight == eb.weight && a < b);
-    });
-    UnionFind uf(members.size());
-    std::vector<std::vector<std::pair<size_t, size_t>>> tree(members.size());
-    for (size_t e : edges) {
-      const ImagePair& p = graph.Edges()[e].pair;
-      const size_t a = local[p.image_id1];
-      const size_t b = local[p.image_id2];
-      if (uf.Union(a, b)) {
-        tree[a].push_back({b, e});
-        tree[b].push_back({a, e});
-      }
-    }
+    const std::vector<std::vector<std::pair<size_t, size_t>>> tree =
+        CommunitySpanningTree(graph, community_edges[c], local,
+                              members.size(), scorer);
     // Prune non-skeletal leaves until none is left.
     std::vector<size_t> degree(members.size());
     std::vector<bool> removed(members.size(), false);
@@ -696,7 +730,9 @@ Skeleton SkeletonBuilder::Finish(const ViewGraph& graph,
     skeletal.insert(r.pair.image_id1);
     skeletal.insert(r.pair.image_id2);
   }
-  skeleton_.intra_edges = ConnectSkeletalImages(graph, communities, skeletal);
+  skeleton_.intra_edges = ConnectSkeletalImages(
+      graph, communities, skeletal,
+      options_.intra_consistent_weights ? scorer_ : nullptr);
   for (const ViewGraphEdge& e : skeleton_.intra_edges) {
     skeletal.insert(e.pair.image_id1);
     skeletal.insert(e.pair.image_id2);

@@ -135,6 +135,17 @@ struct SkeletonOptions {
   /// Only the trees use this order; redundant bridges keep weight order.
   int rank_tiers = 4;
 
+  /// Weigh the intra-community edges that join a community's skeletal
+  /// images by the share of their inliers that agree with the pose the
+  /// scorer accepts for them (BridgeScorer::ConsistentShare; each scored
+  /// lazily, only if the community's maximum spanning tree could take it).
+  /// An addition to the paper, which trusts these edges unverified: on a
+  /// street a pair two to four images apart also matches the facade one
+  /// period over, along its epipolar lines, and those matches let it outweigh
+  /// the true links between; the pose the scorer accepts for such a pair
+  /// keeps only one of the two halves. A scorer that cannot tell (plug-ins)
+  /// leaves the weights as they are.
+  bool intra_consistent_weights = true;
   void Check() const;
   /// The threshold a bridge of `role` must reach (`tree`: its tree index,
   /// for kTree).

@@ -984,5 +984,86 @@ TEST(SkeletonCycles, ARejectionForTheScoreKeepsTheCycleChecked) {
   EXPECT_GT(num_checked, 0u) << "second-tree rejections carry their cycle";
 }
 
+// Scores every bridge 0.9 and reports the consistent share of each pair from
+// a table (1 if absent), recording the pairs it was asked about.
+class ShareScorer : public BridgeScorer {
+ public:
+  std::map<ImagePair, double> shares;
+  std::vector<ImagePair> share_calls;
+  std::string Name() const override { return "share"; }
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
+    return std::vector<double>(pairs.size(), 0.9);
+  }
+  double ConsistentShare(const ImagePair& pair) override {
+    share_calls.push_back(pair);
+    auto it = shares.find(pair);
+    return it == shares.end() ? 1.0 : it->second;
+  }
+};
+
+// One community, a chain 1-2-3-4-5 jumped over by a heavier pair (1, 5) and
+// a light one (1, 3); images 1 and 5 are skeletal through the bridges (1, 6)
+// and (5, 8) to the communities {6, 7} and {8, 9}.
+ViewGraph JumpedChainGraph() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6, 7, 8, 9},
+      {{ImagePair(1, 2), 300}, {ImagePair(2, 3), 310},
+       {ImagePair(3, 4), 320}, {ImagePair(4, 5), 330},
+       {ImagePair(1, 5), 400}, {ImagePair(1, 3), 100},
+       {ImagePair(6, 7), 500}, {ImagePair(8, 9), 500},
+       {ImagePair(1, 6), 60},  {ImagePair(5, 8), 60}});
+}
+
+std::vector<ImagePair> IntraPairs(const Skeleton& s) {
+  std::vector<ImagePair> out;
+  for (const ViewGraphEdge& e : s.intra_edges) out.push_back(e.pair);
+  return out;
+}
+
+TEST(SkeletonIntraEdges, ConsistentSharesKeepTheChainOverAMixedJump) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.Of(1), c.Of(5));
+  ASSERT_NE(c.Of(1), c.Of(6));
+  ShareScorer scorer;
+  scorer.shares[ImagePair(1, 5)] = 0.3;  // 120 < every link of the chain
+  const Skeleton s = BuildSkeleton(g, c, &scorer, SkeletonOptions());
+  EXPECT_EQ(IntraPairs(s),
+            (std::vector<ImagePair>{ImagePair(1, 2), ImagePair(2, 3),
+                                    ImagePair(3, 4), ImagePair(4, 5)}));
+  // Lazy and once each: the light jump (1, 3) never reaches the top of the
+  // heap while 1 and 3 are apart; the communities {6, 7} and {8, 9} hold
+  // one skeletal image each and need no tree.
+  std::set<ImagePair> asked(scorer.share_calls.begin(),
+                            scorer.share_calls.end());
+  EXPECT_EQ(asked.size(), scorer.share_calls.size());
+  EXPECT_EQ(asked, (std::set<ImagePair>{ImagePair(1, 2), ImagePair(2, 3),
+                                        ImagePair(3, 4), ImagePair(4, 5),
+                                        ImagePair(1, 5)}));
+}
+
+TEST(SkeletonIntraEdges, ViewGraphWeightsWhenOffOrWithoutAScorer) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ShareScorer scorer;
+  scorer.shares[ImagePair(1, 5)] = 0.3;
+  SkeletonOptions off;
+  off.intra_consistent_weights = false;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, off);
+  EXPECT_EQ(IntraPairs(s), (std::vector<ImagePair>{ImagePair(1, 5)}));
+  EXPECT_TRUE(scorer.share_calls.empty());
+  EXPECT_EQ(IntraPairs(BuildSkeleton(g, c, nullptr, SkeletonOptions())),
+            (std::vector<ImagePair>{ImagePair(1, 5)}));
+}
+
+TEST(SkeletonIntraEdges, AFullShareKeepsTheJump) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ShareScorer scorer;
+  scorer.shares[ImagePair(1, 5)] = 0.9;  // 360 still outweighs the chain
+  EXPECT_EQ(IntraPairs(BuildSkeleton(g, c, &scorer, SkeletonOptions())),
+            (std::vector<ImagePair>{ImagePair(1, 5)}));
+}
+
 }  // namespace
 }  // namespace hisfm

@@ -86,7 +86,9 @@ void ExpectSameRigsAndFrames(const Reconstruction& a, const Reconstruction& b) {
                                  [&](const Rig& r) { return r.rig_id == ra.rig_id; });
     ASSERT_NE(rb, b.rigs->end());
     EXPECT_EQ(ra.ref_sensor.has_value(), rb->ref_sensor.has_value());
-    if (ra.ref_sensor) EXPECT_EQ(*ra.ref_sensor, *rb->ref_sensor);
+    if (ra.ref_sensor) {
+      EXPECT_EQ(*ra.ref_sensor, *rb->ref_sensor);
+    }
     ASSERT_EQ(ra.sensors.size(), rb->sensors.size());
     for (size_t k = 0; k < ra.sensors.size(); ++k) {
       EXPECT_EQ(ra.sensors[k].sensor, rb->sensors[k].sensor);

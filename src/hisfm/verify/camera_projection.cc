@@ -34,7 +34,7 @@ CameraProjection::CameraProjection(const DatabaseCamera& camera)
 CameraProjection::CameraProjection(int model_id, uint64_t width,
                                    uint64_t height,
                                    const std::vector<double>& p)
-    : model_id_(model_id), width_(width), height_(height) {
+    : width_(width), height_(height) {
   ThrowUnless(IsSupportedModel(model_id),
               StrCat("camera model id ", model_id,
                      " is not supported by the disambiguator (supported: "

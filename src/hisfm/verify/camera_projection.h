@@ -50,7 +50,6 @@ class CameraProjection {
  private:
   Eigen::Vector2d Distort(const Eigen::Vector2d& xy) const;
 
-  int model_id_ = 0;
   uint64_t width_ = 0;
   uint64_t height_ = 0;
   double fx_ = 1, fy_ = 1, cx_ = 0, cy_ = 0;

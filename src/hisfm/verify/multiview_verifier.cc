@@ -23,8 +23,7 @@ void MultiViewVerifierOptions::Check() const {
 MultiViewVerifier::MultiViewVerifier(const Database& database,
                                      const ViewGraph& graph,
                                      const MultiViewVerifierOptions& options)
-    : graph_(graph),
-      options_(options),
+    : options_(options),
       cache_(database, graph, options.geometry) {
   options_.Check();
   KeypointDegrees degrees = ComputeKeypointDegrees(database, graph);
@@ -171,6 +170,13 @@ std::vector<FeatureMatch> MultiViewVerifier::ConsistentInliers(
     if (evidence.consistent[k]) out.push_back(geometry->matches[k]);
   }
   return out;
+}
+
+double MultiViewVerifier::ConsistentShare(const ImagePair& pair) {
+  const EdgeEvidence& evidence = Evaluate(pair);
+  if (!evidence.judged || evidence.consistent.empty()) return 1.0;
+  return static_cast<double>(evidence.num_consistent) /
+         static_cast<double>(evidence.consistent.size());
 }
 
 }  // namespace hisfm

@@ -92,6 +92,9 @@ class MultiViewVerifier : public BridgeScorer {
   /// keypoints first) that agree with the geometry its test accepted; all
   /// of them if the test could not judge it.
   std::vector<FeatureMatch> ConsistentInliers(const ImagePair& pair);
+  /// ConsistentInliers' share of the pair's inliers (1 if the pair has
+  /// none or its test could not judge it).
+  double ConsistentShare(const ImagePair& pair) override;
 
   GeometryCache& cache() { return cache_; }
   /// The graph by which ego models rank neighbours (burstiness weights when
@@ -113,7 +116,6 @@ class MultiViewVerifier : public BridgeScorer {
   // The evidence of a pair evaluated before, else null.
   const EdgeEvidence* FindEvidence(const ImagePair& pair) const;
 
-  const ViewGraph& graph_;
   MultiViewVerifierOptions options_;
   // The graph by which ego models rank neighbours.
   ViewGraph ranking_;

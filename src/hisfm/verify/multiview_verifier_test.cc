@@ -208,6 +208,10 @@ TEST_F(MultiViewVerifierTest, ConsistentInliersAreASubsetOfThePairsInliers) {
       EXPECT_TRUE(seen.insert({m.idx1, m.idx2}).second) << "duplicate";
     }
     const EdgeEvidence& ev = verifier_->Evaluate(e.pair);
+    EXPECT_DOUBLE_EQ(verifier_->ConsistentShare(e.pair),
+                     stored.empty() ? 1.0
+                                    : static_cast<double>(consistent.size()) /
+                                          static_cast<double>(stored.size()));
     if (!ev.judged) {
       EXPECT_EQ(consistent.size(), stored.size());
       continue;
