@@ -1,5 +1,7 @@
 // The verification hook of the skeleton builder: scores inter-community
-// bridges. The verify/ layer implements it (disambiguators, plug-ins).
+// bridges and, where the scorer can tell, weighs intra-community edges by
+// their consistent inliers. The verify/ layer implements it
+// (disambiguators, plug-ins).
 #pragma once
 
 #include <cstddef>
@@ -62,10 +64,10 @@ class BorrowedScorer : public BridgeScorer {
   double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
     return scorer_->CycleRotationErrorDeg(cycle);
   }
-
   double ConsistentShare(const ImagePair& pair) override {
     return scorer_->ConsistentShare(pair);
   }
+
  protected:
   /// The scorer every call is forwarded to.
   BridgeScorer* Borrowed() const { return scorer_; }

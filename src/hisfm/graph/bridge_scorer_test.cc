@@ -25,7 +25,22 @@ struct CountingScorer : BridgeScorer {
     if (drop_last && !s.empty()) s.pop_back();
     return s;
   }
+  double ConsistentShare(const ImagePair& pair) override {
+    return pair.image_id2 / 100.0;
+  }
 };
+
+TEST(BridgeScorer, ConsistentSharesAreForwardedByTheAdapters) {
+  auto counting = std::make_shared<CountingScorer>();
+  BorrowedScorer borrowed(counting.get());
+  EXPECT_DOUBLE_EQ(borrowed.ConsistentShare(ImagePair(1, 40)), 0.4);
+  PairScores scores;
+  MemoScorer memo(counting, &scores);
+  EXPECT_DOUBLE_EQ(memo.ConsistentShare(ImagePair(2, 70)), 0.7);
+  // A scorer that cannot tell reports a full share.
+  AcceptAllScorer none;
+  EXPECT_DOUBLE_EQ(none.ConsistentShare(ImagePair(2, 70)), 1.0);
+}
 
 TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {
   auto counting = std::make_shared<CountingScorer>();

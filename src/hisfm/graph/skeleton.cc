@@ -216,7 +216,11 @@ std::vector<std::vector<std::pair<size_t, size_t>>> CommunitySpanningTree(
     const size_t b = local.at(p.image_id2);
     if (uf.Connected(a, b)) continue;
     if (!top.exact) {
-      const double share = std::clamp(scorer->ConsistentShare(p), 0.0, 1.0);
+      // A share outside [0, 1] is clamped; NaN counts as 0 (it would break
+      // the heap's order).
+      const double reported = scorer->ConsistentShare(p);
+      const double share =
+          std::isnan(reported) ? 0.0 : std::clamp(reported, 0.0, 1.0);
       heap.push({top.weight * share, true, top.edge});
       continue;
     }

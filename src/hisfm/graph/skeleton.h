@@ -24,8 +24,10 @@
 // below tau), the best-scoring bridges that were scored join what is left
 // apart, if they reach a lower fallback threshold (failing soft: one model
 // through its most trustworthy bridge, rather than pieces). Skeletal images
-// of one community are then
-// joined by intra-community edges (no verification).
+// of one community are then joined by intra-community edges, which the
+// paper does not verify. A fourth deviation: their tree is weighed by the
+// share of each pair's inliers that agree with the pose the scorer accepts
+// for it (SkeletonOptions::intra_consistent_weights).
 //
 // A third deviation: the trees meet the bridges in tiers of neighbour rank
 // before weight (SkeletonOptions::rank_tiers): a bridge among the few
@@ -146,6 +148,7 @@ struct SkeletonOptions {
   /// keeps only one of the two halves. A scorer that cannot tell (plug-ins)
   /// leaves the weights as they are.
   bool intra_consistent_weights = true;
+
   void Check() const;
   /// The threshold a bridge of `role` must reach (`tree`: its tree index,
   /// for kTree).
@@ -196,7 +199,9 @@ struct Skeleton {
   bool Contains(ImageId id) const;
 };
 
-/// Builds the skeleton. `scorer` may be null (every bridge accepted).
+/// Builds the skeleton. `scorer` may be null (every bridge accepted, and
+/// intra-community edges weighed by the view graph alone); otherwise it also
+/// weighs the intra-community edges (SkeletonOptions::intra_consistent_weights).
 Skeleton BuildSkeleton(const ViewGraph& graph, const Communities& communities,
                        BridgeScorer* scorer, const SkeletonOptions& options);
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <random>
 #include <set>
@@ -1054,6 +1055,16 @@ TEST(SkeletonIntraEdges, ViewGraphWeightsWhenOffOrWithoutAScorer) {
   EXPECT_TRUE(scorer.share_calls.empty());
   EXPECT_EQ(IntraPairs(BuildSkeleton(g, c, nullptr, SkeletonOptions())),
             (std::vector<ImagePair>{ImagePair(1, 5)}));
+}
+
+TEST(SkeletonIntraEdges, ANaNShareCountsAsNone) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ShareScorer scorer;
+  scorer.shares[ImagePair(1, 5)] = std::nan("");
+  EXPECT_EQ(IntraPairs(BuildSkeleton(g, c, &scorer, SkeletonOptions())),
+            (std::vector<ImagePair>{ImagePair(1, 2), ImagePair(2, 3),
+                                    ImagePair(3, 4), ImagePair(4, 5)}));
 }
 
 TEST(SkeletonIntraEdges, AFullShareKeepsTheJump) {
