@@ -25,14 +25,16 @@
 // apart, if they reach a lower fallback threshold (failing soft: one model
 // through its most trustworthy bridge, rather than pieces). Skeletal images
 // of one community are then joined by intra-community edges, which the
-// paper does not verify. A fourth deviation: their tree is weighed by the
-// share of each pair's inliers that agree with the pose the scorer accepts
-// for it (SkeletonOptions::intra_consistent_weights).
+// paper does not verify.
 //
 // A third deviation: the trees meet the bridges in tiers of neighbour rank
 // before weight (SkeletonOptions::rank_tiers): a bridge among the few
 // strongest pairs of both its images (mutual k-nearest neighbours, as the
 // communities use k = 1) comes before a heavier one that is not.
+//
+// A fourth deviation: the tree that joins a community's skeletal images is
+// weighed by the share of each pair's inliers that agree with the pose the
+// scorer accepts for it (SkeletonOptions::intra_consistent_weights).
 //
 // Kruskal is kept exact within that order (a deferral rule that was tried
 // verified more bridges, not fewer: docs/decisions.md).
