@@ -104,7 +104,7 @@ def format_edge(edge):
     entry = edge["label"]
     text = "%d-%d inliers %s" % (edge["image_id1"], edge["image_id2"],
                                  edge.get("inliers", "?"))
-    if "score" in edge:
+    if edge.get("score") is not None:
         text += " score %.3f" % edge["score"]
     if entry is None:
         return text + " (unlabelled)"

@@ -47,6 +47,16 @@ class HierarchyEdgeLabelsTest(unittest.TestCase):
         self.assertEqual(hel.classify(0, 0), hel.FALSE)
         self.assertEqual(hel.classify(300, 100, true_share=0.3), hel.TRUE)
 
+    def test_edge_without_a_score_is_printed(self):
+        # The mapper writes "score": null for a pair it did not score.
+        edge = {"image_id1": 9, "image_id2": 12, "inliers": 189,
+                "score": None, "label": (hel.FALSE, 189, 0, 189)}
+        self.assertEqual(hel.format_edge(edge),
+                         "9-12 inliers 189 doppelganger "
+                         "(0 true, 189 doppelganger matches)")
+        edge["score"] = 0.6764
+        self.assertIn("score 0.676 ", hel.format_edge(edge))
+
     def test_image_ids_follow_synthetic_names(self):
         self.assertEqual(hel.image_id("000041.png"), 42)
         with self.assertRaises(ValueError):
