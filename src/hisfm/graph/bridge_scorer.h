@@ -45,6 +45,15 @@ class BridgeScorer {
     (void)pair;
     return 1.0;
   }
+  /// ConsistentShare of each pair, in order. The default asks them one at a
+  /// time; a scorer that can judge pairs in parallel overrides it.
+  virtual std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) {
+    std::vector<double> shares;
+    shares.reserve(pairs.size());
+    for (const ImagePair& pair : pairs) shares.push_back(ConsistentShare(pair));
+    return shares;
+  }
 };
 
 /// A non-owning adapter: forwards every call to a scorer the caller keeps
@@ -66,6 +75,10 @@ class BorrowedScorer : public BridgeScorer {
   }
   double ConsistentShare(const ImagePair& pair) override {
     return scorer_->ConsistentShare(pair);
+  }
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override {
+    return scorer_->ConsistentShares(pairs);
   }
 
  protected:

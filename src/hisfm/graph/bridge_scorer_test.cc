@@ -40,6 +40,13 @@ TEST(BridgeScorer, ConsistentSharesAreForwardedByTheAdapters) {
   // A scorer that cannot tell reports a full share.
   AcceptAllScorer none;
   EXPECT_DOUBLE_EQ(none.ConsistentShare(ImagePair(2, 70)), 1.0);
+  // Batches: by default one pair at a time, in order, and forwarded too.
+  EXPECT_EQ(memo.ConsistentShares({ImagePair(1, 40), ImagePair(2, 70)}),
+            (std::vector<double>{0.4, 0.7}));
+  EXPECT_EQ(borrowed.ConsistentShares({ImagePair(3, 90)}),
+            (std::vector<double>{0.9}));
+  EXPECT_EQ(none.ConsistentShares({ImagePair(1, 2), ImagePair(3, 4)}),
+            (std::vector<double>{1.0, 1.0}));
 }
 
 TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {

@@ -6,6 +6,7 @@
 #include <memory>
 #include <queue>
 #include <set>
+#include <string>
 #include <unordered_map>
 
 #include "hisfm/graph/min_cut.h"
@@ -186,11 +187,11 @@ BridgeRecord MakeRecord(const Bridge& b, double score, bool accepted,
 // Kruskal over a max-heap keyed by the weight as far as it is known (the
 // view-graph weight bounds the scaled one from above), so a share is asked
 // only of an edge that reaches the top of the heap while its images are
-// still apart, and once.
+// still apart, and once. Shares in `known` are used without asking.
 std::vector<std::vector<std::pair<size_t, size_t>>> CommunitySpanningTree(
     const ViewGraph& graph, const std::vector<size_t>& edges,
     const std::unordered_map<ImageId, size_t>& local, size_t num_members,
-    BridgeScorer* scorer) {
+    BridgeScorer* scorer, const PairScores& known = {}) {
   struct Entry {
     double weight;
     bool exact;
@@ -218,7 +219,9 @@ std::vector<std::vector<std::pair<size_t, size_t>>> CommunitySpanningTree(
     if (!top.exact) {
       // A share outside [0, 1] is clamped; NaN counts as 0 (it would break
       // the heap's order).
-      const double reported = scorer->ConsistentShare(p);
+      const auto it = known.find(p);
+      const double reported =
+          it != known.end() ? it->second : scorer->ConsistentShare(p);
       const double share =
           std::isnan(reported) ? 0.0 : std::clamp(reported, 0.0, 1.0);
       heap.push({top.weight * share, true, top.edge});
@@ -231,10 +234,23 @@ std::vector<std::vector<std::pair<size_t, size_t>>> CommunitySpanningTree(
   return tree;
 }
 
+// Image id -> index among `members`.
+std::unordered_map<ImageId, size_t> MemberIndex(
+    const std::vector<ImageId>& members) {
+  std::unordered_map<ImageId, size_t> local;
+  for (size_t i = 0; i < members.size(); ++i) local[members[i]] = i;
+  return local;
+}
+
 // Joins the skeletal images of each community: the maximum spanning tree of
 // the community's induced subgraph (CommunitySpanningTree), pruned of
 // non-skeletal leaves, i.e. the smallest subtree that connects them. A
 // community with no skeletal image keeps its whole maximum spanning tree.
+// With a scorer, the shares of every tree's edges by view-graph weight are
+// asked first, in one batch (ConsistentShares, judged in parallel by the
+// builtin): the lazy tree asks each of them anyway (an edge of the
+// maximum spanning tree by the upper bounds is the heaviest link across
+// some cut, so it reaches the top of the heap while its images are apart).
 std::vector<ViewGraphEdge> ConnectSkeletalImages(
     const ViewGraph& graph, const Communities& communities,
     const std::set<ImageId>& skeletal, BridgeScorer* scorer) {
@@ -246,22 +262,50 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
     const CommunityId c = communities.Of(p.image_id1);
     if (c == communities.Of(p.image_id2)) community_edges[c].push_back(e);
   }
+  // A community without any bridge (alone in its component, or cut off by
+  // rejected bridges) becomes a scaffold of its own: keep its whole tree.
+  // One with a single skeletal image needs none.
+  auto num_skeletal_of = [&](CommunityId c) {
+    size_t n = 0;
+    for (ImageId id : communities.members[c]) n += skeletal.count(id);
+    return n;
+  };
+  auto needs_tree = [&](CommunityId c) {
+    return communities.members[c].size() >= 2 && num_skeletal_of(c) != 1;
+  };
+  PairScores known;
+  if (scorer != nullptr) {
+    std::vector<ImagePair> batch;
+    for (CommunityId c = 0; c < communities.NumCommunities(); ++c) {
+      if (!needs_tree(c)) continue;
+      const std::vector<ImageId>& members = communities.members[c];
+      const std::vector<std::vector<std::pair<size_t, size_t>>> bound =
+          CommunitySpanningTree(graph, community_edges[c],
+                                MemberIndex(members), members.size(), nullptr);
+      for (size_t i = 0; i < members.size(); ++i) {
+        for (const auto& [j, e] : bound[i]) {
+          if (i < j) batch.push_back(graph.Edges()[e].pair);
+        }
+      }
+    }
+    const std::vector<double> shares = scorer->ConsistentShares(batch);
+    if (shares.size() != batch.size()) {
+      throw Error("scorer " + scorer->Name() + " returned " +
+                  std::to_string(shares.size()) + " consistent shares for " +
+                  std::to_string(batch.size()) + " pairs");
+    }
+    for (size_t k = 0; k < batch.size(); ++k) known[batch[k]] = shares[k];
+  }
   for (CommunityId c = 0; c < communities.NumCommunities(); ++c) {
+    if (!needs_tree(c)) continue;
     const std::vector<ImageId>& members = communities.members[c];
-    size_t num_skeletal = 0;
-    for (ImageId id : members) num_skeletal += skeletal.count(id);
-    // A community without any bridge (alone in its component, or cut off by
-    // rejected bridges) becomes a scaffold of its own: keep its whole tree.
-    const bool keep_all = num_skeletal == 0;
-    if (members.size() < 2 || num_skeletal == 1) continue;
+    const bool keep_all = num_skeletal_of(c) == 0;
     auto is_terminal = [&](ImageId id) {
       return keep_all || skeletal.count(id) > 0;
     };
-    std::unordered_map<ImageId, size_t> local;
-    for (size_t i = 0; i < members.size(); ++i) local[members[i]] = i;
     const std::vector<std::vector<std::pair<size_t, size_t>>> tree =
-        CommunitySpanningTree(graph, community_edges[c], local,
-                              members.size(), scorer);
+        CommunitySpanningTree(graph, community_edges[c], MemberIndex(members),
+                              members.size(), scorer, known);
     // Prune non-skeletal leaves until none is left.
     std::vector<size_t> degree(members.size());
     std::vector<bool> removed(members.size(), false);

@@ -142,7 +142,9 @@ struct SkeletonOptions {
   /// Weigh the intra-community edges that join a community's skeletal
   /// images by the share of their inliers that agree with the pose the
   /// scorer accepts for them (BridgeScorer::ConsistentShare; each scored
-  /// lazily, only if the community's maximum spanning tree could take it).
+  /// lazily, only if the community's maximum spanning tree could take it;
+  /// the edges of the tree by view-graph weight, which it always asks
+  /// about, in one batch first: BridgeScorer::ConsistentShares).
   /// An addition to the paper, which trusts these edges unverified: on a
   /// street a pair two to four images apart also matches the facade one
   /// period over, along its epipolar lines, and those matches let it outweigh

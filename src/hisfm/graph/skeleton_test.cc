@@ -12,6 +12,7 @@
 #include "hisfm/graph/min_cut.h"
 #include "hisfm/graph/union_find.h"
 #include "hisfm/util/error.h"
+#include "hisfm/util/error.h"
 
 namespace hisfm {
 namespace {
@@ -1041,6 +1042,54 @@ TEST(SkeletonIntraEdges, ConsistentSharesKeepTheChainOverAMixedJump) {
   EXPECT_EQ(asked, (std::set<ImagePair>{ImagePair(1, 2), ImagePair(2, 3),
                                         ImagePair(3, 4), ImagePair(4, 5),
                                         ImagePair(1, 5)}));
+}
+
+// ShareScorer that also records each batch of ConsistentShares.
+class BatchShareScorer : public ShareScorer {
+ public:
+  std::vector<std::vector<ImagePair>> batches;
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override {
+    batches.push_back(pairs);
+    return ShareScorer::ConsistentShares(pairs);
+  }
+};
+
+TEST(SkeletonIntraEdges, TheUpperBoundTreeIsAskedInOneBatch) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  BatchShareScorer scorer;
+  scorer.shares[ImagePair(1, 5)] = 0.3;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, SkeletonOptions());
+  EXPECT_EQ(IntraPairs(s),
+            (std::vector<ImagePair>{ImagePair(1, 2), ImagePair(2, 3),
+                                    ImagePair(3, 4), ImagePair(4, 5)}));
+  // The tree by view-graph weight (1-5, 4-5, 3-4, 2-3) in one batch; only
+  // the link that replaces the mixed jump is asked alone afterwards, and
+  // no pair twice.
+  ASSERT_EQ(scorer.batches.size(), 1u);
+  EXPECT_EQ(std::set<ImagePair>(scorer.batches[0].begin(),
+                                scorer.batches[0].end()),
+            (std::set<ImagePair>{ImagePair(1, 5), ImagePair(2, 3),
+                                 ImagePair(3, 4), ImagePair(4, 5)}));
+  ASSERT_EQ(scorer.share_calls.size(), 5u);
+  EXPECT_EQ(scorer.share_calls.back(), ImagePair(1, 2));
+}
+
+// Returns one share too few for a batch.
+class ShortBatchScorer : public ShareScorer {
+ public:
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override {
+    return std::vector<double>(pairs.empty() ? 0 : pairs.size() - 1, 1.0);
+  }
+};
+
+TEST(SkeletonIntraEdges, AWrongNumberOfSharesIsAnError) {
+  const ViewGraph g = JumpedChainGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ShortBatchScorer scorer;
+  EXPECT_THROW(BuildSkeleton(g, c, &scorer, SkeletonOptions()), Error);
 }
 
 TEST(SkeletonIntraEdges, ViewGraphWeightsWhenOffOrWithoutAScorer) {

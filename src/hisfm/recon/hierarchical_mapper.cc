@@ -749,13 +749,15 @@ std::string CheckMapperPaths(const MapperPaths& paths,
 }
 
 // One round of ReseedUnregistered (numbered `round`): the model it grew to,
-// or nothing if it registered no more images than `current`.
+// or nothing if it registered no more images than `current`; the new models
+// that could not be merged into it go to `unmerged` (UnmergedModels).
 std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
                                        const HierarchyComponent& comp,
                                        const LoadedInput& in,
                                        const HierarchicalMapperOptions& options,
                                        const ModelFolder& current, int round,
-                                       StageTimes* times) {
+                                       StageTimes* times,
+                                       std::vector<Reconstruction>* unmerged) {
   const Reconstruction base = ReadModelBinary(current.path);
   const std::set<ImageId> missing = UnregisteredImages(comp, base);
   if (missing.empty()) return std::nullopt;
@@ -812,6 +814,8 @@ std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
   HISFM_LOG_INFO("reseed: {} new model(s), {} merged; {} -> {} images",
                  num_new, merged.NumMerged(), base.NumRegImages(),
                  merged.model.NumRegImages());
+  *unmerged = UnmergedModels(models, merged,
+                             static_cast<size_t>(options.min_model_size));
   if (merged.model.NumRegImages() <= base.NumRegImages()) return std::nullopt;
   const std::string merged_dir = run.dir + "/" + stage + "_merged";
   AtomicDirectory dir(merged_dir);
@@ -840,18 +844,20 @@ std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
 // through one image: the next image there needs 3D points that only it and
 // that image see, and nothing triangulated them. A model started inside the
 // region has them. Repeats up to options.reseed_rounds times while it
-// registers more images; returns the best model.
+// registers more images; returns the best model. The last round's new
+// models that could not be merged go to `unmerged`.
 ModelFolder ReseedUnregistered(const ComponentRun& run,
                                const HierarchyComponent& comp,
                                const LoadedInput& in,
                                const HierarchicalMapperOptions& options,
-                               const ModelFolder& model, StageTimes* times) {
+                               const ModelFolder& model, StageTimes* times,
+                               std::vector<Reconstruction>* unmerged) {
   if (!options.merge_sub_models) return model;
   ModelFolder current = model;
   for (int round = 0; round < options.reseed_rounds; ++round) {
     try {
-      const std::optional<ModelFolder> grown =
-          ReseedRound(run, comp, in, options, current, round, times);
+      const std::optional<ModelFolder> grown = ReseedRound(
+          run, comp, in, options, current, round, times, unmerged);
       if (!grown) break;
       current = *grown;
     } catch (const Interrupted&) {
@@ -871,6 +877,9 @@ struct ComponentModel {
   ScaffoldOutcome scaffold;
   // Images the re-seeding registered (ReseedUnregistered).
   size_t num_reseeded = 0;
+  // Models the re-seeding started that could not be joined to `model`,
+  // without its images: written as further models, as colmap does.
+  std::vector<Reconstruction> separate;
 };
 
 // Reconstructs one component: filtered databases, scaffold, attached leaves,
@@ -886,10 +895,23 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
   const ModelFolder rescued = RescueUnregistered(
       run, comp, in, options,
       AttachLeaves(run, comp, options, out.scaffold.model, times), times);
-  const ModelFolder attached =
-      ReseedUnregistered(run, comp, in, options, rescued, times);
+  const ModelFolder attached = ReseedUnregistered(run, comp, in, options,
+                                                  rescued, times,
+                                                  &out.separate);
   out.num_reseeded = attached.num_registered - rescued.num_registered;
   out.model = ReadModelBinary(RefineModel(run, attached, options, times));
+  // The last attach run may have registered some of their images.
+  out.separate =
+      DisjointModels(out.model, std::move(out.separate),
+                     static_cast<size_t>(options.min_model_size));
+  if (!out.separate.empty()) {
+    size_t n = 0;
+    for (const Reconstruction& m : out.separate) n += m.NumRegImages();
+    HISFM_LOG_WARN(
+        "{} image(s) in {} model(s) the re-seeding could not join to the "
+        "component's model: written as further models",
+        n, out.separate.size());
+  }
   return out;
 }
 
@@ -903,6 +925,21 @@ nlohmann::json ComponentStats(const ComponentModel& result,
   stats["scaffold_fallback"] = result.scaffold.fallback;
   stats["scaffold_merged_sub_models"] = result.scaffold.model.num_merged;
   stats["reseeded_images"] = result.num_reseeded;
+  stats["path"] = std::to_string(index);
+  return stats;
+}
+
+// The summary's entry for a model the re-seeding of a component could not
+// join to the component's model (`main_index`); it is model `index`.
+nlohmann::json SeparateModelStats(const Reconstruction& model,
+                                  const HierarchyComponent& comp, size_t index,
+                                  size_t main_index) {
+  nlohmann::json stats = ModelStats(model);
+  stats["component_images"] = comp.images.size();
+  stats["scaffold_images"] = 0;
+  stats["scaffold_registered"] = 0;
+  stats["reseeded_images"] = model.NumRegImages();
+  stats["separate_from"] = std::to_string(main_index);
   stats["path"] = std::to_string(index);
   return stats;
 }
@@ -1002,7 +1039,16 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       fs::create_directories(model_dir, ec);
       WriteModelBinary(result.model, model_dir);
       num_registered += result.model.NumRegImages();
-      models.push_back(ComponentStats(result, comp, model_index - 1));
+      const size_t main_index = model_index - 1;
+      models.push_back(ComponentStats(result, comp, main_index));
+      for (const Reconstruction& separate : result.separate) {
+        const std::string dir = StrCat(output.path(), "/", model_index++);
+        fs::create_directories(dir, ec);
+        WriteModelBinary(separate, dir);
+        num_registered += separate.NumRegImages();
+        models.push_back(
+            SeparateModelStats(separate, comp, model_index - 1, main_index));
+      }
     } catch (const Interrupted&) {
       throw;
     } catch (const Error& e) {

@@ -84,7 +84,8 @@ struct HierarchicalMapperOptions {
   /// stage: new colmap models on them and their registered neighbours (the
   /// hierarchy's and reserve edges only), merged into the component's model
   /// where they share registered images, then attached again; a round runs
-  /// only while the previous one registered more. 0 turns it off.
+  /// only while the previous one registered more. The last round's models
+  /// that could not be merged are written as further models. 0 turns it off.
   int reseed_rounds = 2;
   /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.
   std::vector<std::string> mapper_args;
@@ -96,7 +97,9 @@ struct HierarchicalMapperOptions {
 struct MapperPaths {
   std::string database_path;
   std::string image_path;
-  /// Final models go to output_path/0, /1, ...; must be missing or empty.
+  /// Final models go to output_path/0, /1, ...: each component's model,
+  /// followed by the re-seeded models it could not join (the summary's
+  /// "separate_from" names the component's model); must be missing or empty.
   std::string output_path;
   /// Intermediate databases, scaffolds and logs (kept for inspection);
   /// default output_path + "_work" when empty.

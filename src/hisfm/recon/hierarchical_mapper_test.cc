@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 #include "hisfm/io/database.h"
@@ -374,6 +375,46 @@ TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
                                          ReadModel(tmp / "scene/ground_truth"),
                                          {});
   EXPECT_TRUE(e.correct) << e.verdict_reason;
+}
+
+// When no sub-model can be merged (a merge that needs more shared points
+// than any model has), what the re-seeding registers is not dropped: it is
+// written as further models, each image in one model only.
+TEST(HierarchicalMapper, WritesReseededModelsItCannotJoin) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const MapperPaths paths =
+      SynthScene(tmp, "crossing_streets", 150, 6, true);
+  HierarchicalMapperOptions options;
+  options.merge.min_inliers = 1000000;
+  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  ASSERT_GE(summary["models"].size(), 2u)
+      << "the scene no longer leaves images to re-seed";
+  std::set<ImageId> seen;
+  size_t total = 0;
+  for (size_t k = 0; k < summary["models"].size(); ++k) {
+    const nlohmann::json& stats = summary["models"][k];
+    ASSERT_EQ(stats["path"], std::to_string(k));
+    const Reconstruction model = ReadModel(tmp / ("out/" + std::to_string(k)));
+    EXPECT_EQ(stats["registered_images"], model.NumRegImages());
+    EXPECT_GE(model.NumRegImages(), 3u);
+    for (const auto& [id, image] : model.images) {
+      EXPECT_TRUE(seen.insert(id).second) << "image " << id << " twice";
+    }
+    total += model.NumRegImages();
+    if (k == 0) {
+      EXPECT_FALSE(stats.contains("separate_from"));
+    } else {
+      EXPECT_EQ(stats["separate_from"], "0");
+    }
+    // Each model is right in itself (its own gauge).
+    PoseEvaluationOptions partial;
+    partial.require_all_registered = false;
+    const PoseEvaluation e = EvaluateModel(
+        model, ReadModel(tmp / "scene/ground_truth"), partial);
+    EXPECT_TRUE(e.correct) << "model " << k << ": " << e.verdict_reason;
+  }
+  EXPECT_EQ(summary["registered_images"], total);
 }
 
 // Writes an oracle plug-in's scores: each verified pair's true share of

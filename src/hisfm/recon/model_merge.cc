@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 #include <unordered_map>
 
 #include "hisfm/eval/similarity_alignment.h"
@@ -303,6 +304,84 @@ ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
   }
   for (size_t i : left) result.steps.push_back(failed.at(i));
   return result;
+}
+
+void RemoveImages(const std::set<ImageId>& image_ids, Reconstruction* model) {
+  auto removed = [&](ImageId id) { return image_ids.count(id) > 0; };
+  if (model->frames) {
+    for (const Frame& frame : *model->frames) {
+      size_t num_removed = 0;
+      for (const FrameData& d : frame.data) {
+        num_removed += removed(static_cast<ImageId>(d.data_id));
+      }
+      ThrowUnless(num_removed == 0 || num_removed == frame.data.size(),
+                  StrCat("RemoveImages: frame ", frame.frame_id,
+                         " holds images of a rig that are not all removed"));
+    }
+    std::vector<Frame>& frames = *model->frames;
+    frames.erase(std::remove_if(frames.begin(), frames.end(),
+                                [&](const Frame& f) {
+                                  return !f.data.empty() &&
+                                         removed(static_cast<ImageId>(
+                                             f.data.front().data_id));
+                                }),
+                 frames.end());
+  }
+  for (ImageId id : image_ids) model->images.erase(id);
+  for (auto it = model->points3D.begin(); it != model->points3D.end();) {
+    std::vector<TrackElement>& track = it->second.track;
+    track.erase(std::remove_if(track.begin(), track.end(),
+                               [&](const TrackElement& e) {
+                                 return removed(e.image_id);
+                               }),
+                track.end());
+    if (track.size() >= 2) {
+      ++it;
+      continue;
+    }
+    for (const TrackElement& e : track) {
+      model->images.at(e.image_id).points2D.at(e.point2D_idx).point3D_id =
+          kInvalidPoint3DId;
+    }
+    it = model->points3D.erase(it);
+  }
+}
+
+std::vector<Reconstruction> DisjointModels(const Reconstruction& base,
+                                           std::vector<Reconstruction> models,
+                                           size_t min_images) {
+  std::stable_sort(models.begin(), models.end(),
+                   [](const Reconstruction& a, const Reconstruction& b) {
+                     return a.NumRegImages() > b.NumRegImages();
+                   });
+  std::set<ImageId> taken;
+  for (const auto& [id, image] : base.images) taken.insert(id);
+  std::vector<Reconstruction> out;
+  for (Reconstruction& model : models) {
+    std::set<ImageId> shared;
+    for (const auto& [id, image] : model.images) {
+      if (taken.count(id)) shared.insert(id);
+    }
+    try {
+      RemoveImages(shared, &model);
+    } catch (const Error&) {
+      continue;
+    }
+    if (model.NumRegImages() < min_images) continue;
+    for (const auto& [id, image] : model.images) taken.insert(id);
+    out.push_back(std::move(model));
+  }
+  return out;
+}
+
+std::vector<Reconstruction> UnmergedModels(
+    const std::vector<Reconstruction>& models, const ModelMergeResult& result,
+    size_t min_images) {
+  std::vector<Reconstruction> left;
+  for (const ModelMergeStep& step : result.steps) {
+    if (!step.merged) left.push_back(models.at(step.model));
+  }
+  return DisjointModels(result.model, std::move(left), min_images);
 }
 
 }  // namespace hisfm

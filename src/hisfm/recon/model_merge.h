@@ -21,6 +21,7 @@
 #pragma once
 
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "hisfm/io/model.h"
@@ -106,5 +107,29 @@ size_t LargestModelIndex(const std::vector<Reconstruction>& models);
 ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
                              const ModelMergeOptions& options = {},
                              std::optional<size_t> base = std::nullopt);
+
+/// Removes the images `image_ids` from `model`: their images, their
+/// observations in the points' tracks, the points left with fewer than two
+/// observations (and the other images' references to them), and the frames
+/// that held only removed images. Ids not in the model are ignored. Throws
+/// hisfm::Error if a frame holds removed and kept images (a rig of several
+/// sensors), leaving `model` unchanged.
+void RemoveImages(const std::set<ImageId>& image_ids, Reconstruction* model);
+
+/// `models` without the images of `base` and of the larger ones among them,
+/// largest first, those keeping at least `min_images` images: models that
+/// can be written beside `base` with no image in two of them. A model with
+/// rigs of several sensors that shares images is left out.
+std::vector<Reconstruction> DisjointModels(const Reconstruction& base,
+                                           std::vector<Reconstruction> models,
+                                           size_t min_images);
+
+/// The sub-models of `models` that `result` (MergeModels) left out, as
+/// DisjointModels of result.model: what a run reconstructed but could not
+/// join, for the further models of its output (as COLMAP writes one folder
+/// per sub-model).
+std::vector<Reconstruction> UnmergedModels(
+    const std::vector<Reconstruction>& models, const ModelMergeResult& result,
+    size_t min_images);
 
 }  // namespace hisfm

@@ -343,6 +343,93 @@ TEST(ModelMerge, KeepsTheLargestWhenNothingJoins) {
   EXPECT_EQ(result.model.NumRegImages(), 6u);
 }
 
+std::vector<ImageId> ImageIds(const Reconstruction& model) {
+  std::vector<ImageId> ids;
+  for (const auto& [id, image] : model.images) ids.push_back(id);
+  return ids;
+}
+
+TEST(RemoveImages, DropsObservationsAndPointsLeftWithOne) {
+  Reconstruction model = RowModel(1, 5, Sim3d());
+  // Point 1 is seen by images 1 and 2 only.
+  for (int i = 3; i <= 5; ++i) {
+    model.images.at(i).points2D[0].point3D_id = kInvalidPoint3DId;
+  }
+  model.points3D.at(1).track.resize(2);
+  AddSingleCameraRigs(&model);
+  RemoveImages({2, 3, 99}, &model);
+  EXPECT_EQ(ImageIds(model), (std::vector<ImageId>{1, 4, 5}));
+  EXPECT_EQ(model.points3D.count(1), 0u);
+  EXPECT_EQ(model.images.at(1).points2D[0].point3D_id, kInvalidPoint3DId);
+  EXPECT_EQ(model.NumPoints3D(), static_cast<size_t>(kNumPoints - 1));
+  for (const auto& [pid, point] : model.points3D) {
+    EXPECT_EQ(point.track.size(), 3u) << pid;
+  }
+  ExpectConsistentTracks(model);
+  ASSERT_TRUE(model.frames.has_value());
+  std::vector<uint32_t> frames;
+  for (const Frame& f : *model.frames) frames.push_back(f.frame_id);
+  EXPECT_EQ(frames, (std::vector<uint32_t>{1, 4, 5}));
+}
+
+TEST(RemoveImages, RefusesToSplitAFrameOfSeveralImages) {
+  Reconstruction model = RowModel(1, 3, Sim3d());
+  AddSingleCameraRigs(&model);
+  (*model.frames)[0].data.push_back({SensorId{SensorType::kCamera, 2}, 2});
+  const Reconstruction before = model;
+  EXPECT_THROW(RemoveImages({2}, &model), Error);
+  EXPECT_EQ(ImageIds(model), ImageIds(before));
+  EXPECT_EQ(model.frames->size(), before.frames->size());
+  EXPECT_EQ(model.NumObservations(), before.NumObservations());
+}
+
+TEST(UnmergedModels, KeepsWhatCouldNotJoinWithoutImagesTwice) {
+  // B shares image 10 with the base but holds it at a pose its points
+  // disagree with, so it cannot join; C is too small; D shares nothing.
+  Reconstruction b = RowModel(10, 16, SomeFrame(), 100);
+  Rigid3d& pose = b.images.at(10).cam_from_world;
+  pose = Rigid3d(Eigen::Quaterniond(
+                     Eigen::AngleAxisd(0.35, Eigen::Vector3d::UnitX())),
+                 Eigen::Vector3d::Zero()) *
+         pose;
+  const std::vector<Reconstruction> models = {
+      RowModel(1, 10, Sim3d()), RowModel(30, 35, SomeFrame(), 300),
+      RowModel(20, 21, SomeFrame(), 200), b};
+  const ModelMergeResult result = MergeModels(models);
+  ASSERT_EQ(result.base, 0u);
+  ASSERT_EQ(result.NumMerged(), 0u);
+  const std::vector<Reconstruction> left = UnmergedModels(models, result, 3);
+  ASSERT_EQ(left.size(), 2u);
+  // B came first (7 images before image 10 went), then D.
+  EXPECT_EQ(ImageIds(left[0]),
+            (std::vector<ImageId>{11, 12, 13, 14, 15, 16}));
+  EXPECT_EQ(ImageIds(left[1]),
+            (std::vector<ImageId>{30, 31, 32, 33, 34, 35}));
+  for (const Reconstruction& m : left) ExpectConsistentTracks(m);
+  // With a floor of 7 images neither is kept.
+  EXPECT_EQ(UnmergedModels(models, result, 7).size(), 0u);
+  // Nothing is left when everything merged.
+  const std::vector<Reconstruction> chain = {RowModel(1, 5, Sim3d()),
+                                             RowModel(5, 9, SomeFrame())};
+  EXPECT_TRUE(UnmergedModels(chain, MergeModels(chain), 1).empty());
+}
+
+TEST(DisjointModels, LargerModelsKeepSharedImages) {
+  const Reconstruction base = RowModel(1, 3, Sim3d());
+  const std::vector<Reconstruction> models = {RowModel(3, 6, Sim3d(), 100),
+                                              RowModel(5, 12, Sim3d(), 200)};
+  // 5-12 comes first and keeps 5 and 6; 3-6 keeps only image 4.
+  std::vector<Reconstruction> out = DisjointModels(base, models, 1);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(ImageIds(out[0]),
+            (std::vector<ImageId>{5, 6, 7, 8, 9, 10, 11, 12}));
+  EXPECT_EQ(ImageIds(out[1]), (std::vector<ImageId>{4}));
+  EXPECT_TRUE(out[1].points3D.empty());
+  out = DisjointModels(base, models, 2);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].NumRegImages(), 8u);
+}
+
 TEST(ModelMergeOptions, CheckRejectsOutOfRangeValues) {
   ModelMergeOptions options;
   EXPECT_NO_THROW(options.Check());

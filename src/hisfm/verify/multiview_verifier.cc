@@ -94,6 +94,14 @@ double RelativeWeight(const ViewGraph& graph, const ImagePair& pair) {
   return ratio;
 }
 
+// The share of a pair's inliers that its evidence marks consistent (1 if
+// the pair was not judged or has no inliers).
+double ShareOf(const EdgeEvidence& evidence) {
+  if (!evidence.judged || evidence.consistent.empty()) return 1.0;
+  return static_cast<double>(evidence.num_consistent) /
+         static_cast<double>(evidence.consistent.size());
+}
+
 }  // namespace
 
 PairFeatures MultiViewVerifier::Features(const ImagePair& pair) {
@@ -147,16 +155,24 @@ double MultiViewVerifier::CycleRotationErrorDeg(
          180.0 / M_PI;
 }
 
-std::vector<double> MultiViewVerifier::Score(
-    const std::vector<ImagePair>& pairs) {
+std::vector<double> MultiViewVerifier::PerPair(
+    const std::vector<ImagePair>& pairs,
+    const std::function<double(const ImagePair&, bool)>& value) {
   // Each pair on one thread; a lone pair builds its two models in parallel
   // instead.
   const bool parallel_models = pairs.size() == 1;
-  std::vector<double> scores(pairs.size());
+  std::vector<double> values(pairs.size());
   ParallelFor(pairs.size(), options_.num_threads, [&](size_t k) {
-    scores[k] = CalibratedPairScore(FeaturesOf(pairs[k], parallel_models));
+    values[k] = value(pairs[k], parallel_models);
   });
-  return scores;
+  return values;
+}
+
+std::vector<double> MultiViewVerifier::Score(
+    const std::vector<ImagePair>& pairs) {
+  return PerPair(pairs, [this](const ImagePair& pair, bool parallel_models) {
+    return CalibratedPairScore(FeaturesOf(pair, parallel_models));
+  });
 }
 
 std::vector<FeatureMatch> MultiViewVerifier::ConsistentInliers(
@@ -173,10 +189,14 @@ std::vector<FeatureMatch> MultiViewVerifier::ConsistentInliers(
 }
 
 double MultiViewVerifier::ConsistentShare(const ImagePair& pair) {
-  const EdgeEvidence& evidence = Evaluate(pair);
-  if (!evidence.judged || evidence.consistent.empty()) return 1.0;
-  return static_cast<double>(evidence.num_consistent) /
-         static_cast<double>(evidence.consistent.size());
+  return ShareOf(Evaluate(pair));
+}
+
+std::vector<double> MultiViewVerifier::ConsistentShares(
+    const std::vector<ImagePair>& pairs) {
+  return PerPair(pairs, [this](const ImagePair& pair, bool parallel_models) {
+    return ShareOf(EvaluatePair(pair, parallel_models));
+  });
 }
 
 }  // namespace hisfm

@@ -13,6 +13,7 @@
 // verifier.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -95,6 +96,10 @@ class MultiViewVerifier : public BridgeScorer {
   /// ConsistentInliers' share of the pair's inliers (1 if the pair has
   /// none or its test could not judge it).
   double ConsistentShare(const ImagePair& pair) override;
+  /// ConsistentShare of each pair, the pairs judged on up to num_threads
+  /// threads (as Score).
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override;
 
   GeometryCache& cache() { return cache_; }
   /// The graph by which ego models rank neighbours (burstiness weights when
@@ -111,6 +116,12 @@ class MultiViewVerifier : public BridgeScorer {
   // `parallel_models` (and num_threads allows).
   const EdgeEvidence& EvaluatePair(const ImagePair& pair,
                                    bool parallel_models);
+  // value(pair, parallel_models) of each pair, the pairs on up to
+  // num_threads threads (a lone pair with parallel_models, so that its two
+  // ego models are built in parallel instead).
+  std::vector<double> PerPair(
+      const std::vector<ImagePair>& pairs,
+      const std::function<double(const ImagePair&, bool)>& value);
   // Features(), with EvaluatePair's `parallel_models`.
   PairFeatures FeaturesOf(const ImagePair& pair, bool parallel_models);
   // The evidence of a pair evaluated before, else null.

@@ -41,6 +41,18 @@ class MultiViewVerifierTest : public ::testing::Test {
     return a >= 0 && a == k[p.image_id2 - 1][m.idx2];
   }
 
+  // The street's first `n` pairs (all if fewer).
+  static std::vector<ImagePair> FirstPairs(size_t n) {
+    std::vector<ImagePair> pairs = street_->graph.Pairs();
+    pairs.resize(std::min(pairs.size(), n));
+    return pairs;
+  }
+  static MultiViewVerifierOptions Threads(int n) {
+    MultiViewVerifierOptions options;
+    options.num_threads = n;
+    return options;
+  }
+
   static street_test::Opened* street_;
   static MultiViewVerifier* verifier_;
 };
@@ -145,15 +157,10 @@ TEST_F(MultiViewVerifierTest, ScoreIsScoreOfInOrderAndComputedOnce) {
 // four threads evaluating pair by pair (each pair's two models in
 // parallel).
 TEST_F(MultiViewVerifierTest, ScoresDoNotDependOnThreadsOrOrder) {
-  std::vector<ImagePair> pairs = street_->graph.Pairs();
-  pairs.resize(std::min<size_t>(pairs.size(), 24));
-  MultiViewVerifierOptions one;
-  one.num_threads = 1;
-  MultiViewVerifierOptions four;
-  four.num_threads = 4;
-  MultiViewVerifier serial(street_->db, street_->graph, one);
-  MultiViewVerifier batched(street_->db, street_->graph, four);
-  MultiViewVerifier paired(street_->db, street_->graph, four);
+  const std::vector<ImagePair> pairs = FirstPairs(24);
+  MultiViewVerifier serial(street_->db, street_->graph, Threads(1));
+  MultiViewVerifier batched(street_->db, street_->graph, Threads(4));
+  MultiViewVerifier paired(street_->db, street_->graph, Threads(4));
   std::vector<ImagePair> reversed(pairs.rbegin(), pairs.rend());
   const std::vector<double> batch = batched.Score(reversed);
   ASSERT_EQ(batch.size(), pairs.size());
@@ -187,6 +194,25 @@ TEST_F(MultiViewVerifierTest, RankingGraphHasTheSameImagesAndEdges) {
                      e.weight;
   }
   EXPECT_GT(num_different, 0u);
+}
+
+TEST_F(MultiViewVerifierTest, ConsistentSharesInABatchMatchOneByOne) {
+  const std::vector<ImagePair> pairs = FirstPairs(16);
+  MultiViewVerifier serial(street_->db, street_->graph, Threads(1));
+  MultiViewVerifier batched(street_->db, street_->graph, Threads(4));
+  const std::vector<ImagePair> reversed(pairs.rbegin(), pairs.rend());
+  const std::vector<double> shares = batched.ConsistentShares(reversed);
+  ASSERT_EQ(shares.size(), pairs.size());
+  EXPECT_EQ(batched.NumEvaluated(), pairs.size());
+  size_t partial = 0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    const double expected = serial.ConsistentShare(pairs[k]);
+    EXPECT_EQ(shares[pairs.size() - 1 - k], expected) << k;
+    partial += expected < 1.0;
+  }
+  // Some pair loses inliers to the cleaning, so the shares say something.
+  EXPECT_GT(partial, 0u);
+  EXPECT_TRUE(batched.ConsistentShares({}).empty());
 }
 
 TEST_F(MultiViewVerifierTest, ConsistentInliersAreASubsetOfThePairsInliers) {
