@@ -30,6 +30,17 @@ struct CountingScorer : BridgeScorer {
   }
 };
 
+// Reports other shares in batches than one by one, to tell which path an
+// adapter took.
+struct BatchCountingScorer : CountingScorer {
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override {
+    std::vector<double> shares;
+    for (const ImagePair& p : pairs) shares.push_back(p.image_id1 / 100.0);
+    return shares;
+  }
+};
+
 TEST(BridgeScorer, ConsistentSharesAreForwardedByTheAdapters) {
   auto counting = std::make_shared<CountingScorer>();
   BorrowedScorer borrowed(counting.get());
@@ -40,13 +51,19 @@ TEST(BridgeScorer, ConsistentSharesAreForwardedByTheAdapters) {
   // A scorer that cannot tell reports a full share.
   AcceptAllScorer none;
   EXPECT_DOUBLE_EQ(none.ConsistentShare(ImagePair(2, 70)), 1.0);
-  // Batches: by default one pair at a time, in order, and forwarded too.
-  EXPECT_EQ(memo.ConsistentShares({ImagePair(1, 40), ImagePair(2, 70)}),
+  // Batches: by default one pair at a time, in order.
+  EXPECT_EQ(counting->ConsistentShares({ImagePair(1, 40), ImagePair(2, 70)}),
             (std::vector<double>{0.4, 0.7}));
-  EXPECT_EQ(borrowed.ConsistentShares({ImagePair(3, 90)}),
-            (std::vector<double>{0.9}));
   EXPECT_EQ(none.ConsistentShares({ImagePair(1, 2), ImagePair(3, 4)}),
             (std::vector<double>{1.0, 1.0}));
+  // The adapters forward batches to the scorer's own batch path.
+  auto batching = std::make_shared<BatchCountingScorer>();
+  BorrowedScorer borrowed_batch(batching.get());
+  EXPECT_EQ(borrowed_batch.ConsistentShares({ImagePair(3, 90)}),
+            (std::vector<double>{0.03}));
+  MemoScorer memo_batch(batching, &scores);
+  EXPECT_EQ(memo_batch.ConsistentShares({ImagePair(5, 90), ImagePair(6, 7)}),
+            (std::vector<double>{0.05, 0.06}));
 }
 
 TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {

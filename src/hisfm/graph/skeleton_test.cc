@@ -12,7 +12,6 @@
 #include "hisfm/graph/min_cut.h"
 #include "hisfm/graph/union_find.h"
 #include "hisfm/util/error.h"
-#include "hisfm/util/error.h"
 
 namespace hisfm {
 namespace {

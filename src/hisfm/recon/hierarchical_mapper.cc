@@ -750,7 +750,7 @@ std::string CheckMapperPaths(const MapperPaths& paths,
 
 // One round of ReseedUnregistered (numbered `round`): the model it grew to,
 // or nothing if it registered no more images than `current`; the new models
-// that could not be merged into it go to `unmerged` (UnmergedModels).
+// that could not be merged into it are appended to `unmerged`.
 std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
                                        const HierarchyComponent& comp,
                                        const LoadedInput& in,
@@ -814,8 +814,9 @@ std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
   HISFM_LOG_INFO("reseed: {} new model(s), {} merged; {} -> {} images",
                  num_new, merged.NumMerged(), base.NumRegImages(),
                  merged.model.NumRegImages());
-  *unmerged = UnmergedModels(models, merged,
-                             static_cast<size_t>(options.min_model_size));
+  for (Reconstruction& model : UnmergedModels(models, merged)) {
+    unmerged->push_back(std::move(model));
+  }
   if (merged.model.NumRegImages() <= base.NumRegImages()) return std::nullopt;
   const std::string merged_dir = run.dir + "/" + stage + "_merged";
   AtomicDirectory dir(merged_dir);
@@ -844,8 +845,9 @@ std::optional<ModelFolder> ReseedRound(const ComponentRun& run,
 // through one image: the next image there needs 3D points that only it and
 // that image see, and nothing triangulated them. A model started inside the
 // region has them. Repeats up to options.reseed_rounds times while it
-// registers more images; returns the best model. The last round's new
-// models that could not be merged go to `unmerged`.
+// registers more images; returns the best model. The new models that could
+// not be merged are appended to `unmerged` (several rounds may hold the same
+// images; DisjointModels sorts that out).
 ModelFolder ReseedUnregistered(const ComponentRun& run,
                                const HierarchyComponent& comp,
                                const LoadedInput& in,
@@ -900,7 +902,8 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
                                                   &out.separate);
   out.num_reseeded = attached.num_registered - rescued.num_registered;
   out.model = ReadModelBinary(RefineModel(run, attached, options, times));
-  // The last attach run may have registered some of their images.
+  // Earlier rounds' models overlap later ones, and the attach runs may
+  // have registered some of their images.
   out.separate =
       DisjointModels(out.model, std::move(out.separate),
                      static_cast<size_t>(options.min_model_size));
@@ -931,11 +934,10 @@ nlohmann::json ComponentStats(const ComponentModel& result,
 
 // The summary's entry for a model the re-seeding of a component could not
 // join to the component's model (`main_index`); it is model `index`.
-nlohmann::json SeparateModelStats(const Reconstruction& model,
-                                  const HierarchyComponent& comp, size_t index,
+nlohmann::json SeparateModelStats(const Reconstruction& model, size_t index,
                                   size_t main_index) {
   nlohmann::json stats = ModelStats(model);
-  stats["component_images"] = comp.images.size();
+  stats["component_images"] = model.NumRegImages();
   stats["scaffold_images"] = 0;
   stats["scaffold_registered"] = 0;
   stats["reseeded_images"] = model.NumRegImages();
@@ -1020,6 +1022,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   StageTimes times;
   size_t model_index = 0;
   size_t num_registered = 0;
+  // Models the re-seeding could not join, with their component's model.
+  std::vector<std::pair<Reconstruction, size_t>> separate;
   for (size_t c = 0; c < h.components.size(); ++c) {
     const HierarchyComponent& comp = h.components[c];
     if (comp.images.size() < static_cast<size_t>(options.min_model_size)) {
@@ -1039,15 +1043,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       fs::create_directories(model_dir, ec);
       WriteModelBinary(result.model, model_dir);
       num_registered += result.model.NumRegImages();
-      const size_t main_index = model_index - 1;
-      models.push_back(ComponentStats(result, comp, main_index));
-      for (const Reconstruction& separate : result.separate) {
-        const std::string dir = StrCat(output.path(), "/", model_index++);
-        fs::create_directories(dir, ec);
-        WriteModelBinary(separate, dir);
-        num_registered += separate.NumRegImages();
-        models.push_back(
-            SeparateModelStats(separate, comp, model_index - 1, main_index));
+      models.push_back(ComponentStats(result, comp, model_index - 1));
+      for (const Reconstruction& model : result.separate) {
+        separate.push_back({model, model_index - 1});
       }
     } catch (const Interrupted&) {
       throw;
@@ -1058,6 +1056,15 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                         {"images", comp.images.size()},
                         {"error", e.what()}});
     }
+  }
+  // The re-seeded models no component could join follow every component's
+  // model, so that out/0, out/1, ... stay the components in their order.
+  for (const auto& [model, main_index] : separate) {
+    const std::string model_dir = StrCat(output.path(), "/", model_index++);
+    fs::create_directories(model_dir, ec);
+    WriteModelBinary(model, model_dir);
+    num_registered += model.NumRegImages();
+    models.push_back(SeparateModelStats(model, model_index - 1, main_index));
   }
   ThrowUnless(model_index > 0,
               StrCat("no model could be reconstructed; see the logs in ",

@@ -98,7 +98,7 @@ struct MapperPaths {
   std::string database_path;
   std::string image_path;
   /// Final models go to output_path/0, /1, ...: each component's model,
-  /// followed by the re-seeded models it could not join (the summary's
+  /// then the re-seeded models a component could not join (the summary's
   /// "separate_from" names the component's model); must be missing or empty.
   std::string output_path;
   /// Intermediate databases, scaffolds and logs (kept for inspection);

@@ -308,22 +308,27 @@ ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
 
 void RemoveImages(const std::set<ImageId>& image_ids, Reconstruction* model) {
   auto removed = [&](ImageId id) { return image_ids.count(id) > 0; };
+  // The number of a frame's images (camera data) and of those removed.
+  auto count = [&](const Frame& frame) {
+    std::pair<size_t, size_t> n{0, 0};
+    for (const FrameData& d : frame.data) {
+      if (d.sensor.type != SensorType::kCamera) continue;
+      ++n.first;
+      n.second += removed(static_cast<ImageId>(d.data_id));
+    }
+    return n;
+  };
   if (model->frames) {
     for (const Frame& frame : *model->frames) {
-      size_t num_removed = 0;
-      for (const FrameData& d : frame.data) {
-        num_removed += removed(static_cast<ImageId>(d.data_id));
-      }
-      ThrowUnless(num_removed == 0 || num_removed == frame.data.size(),
+      const auto [num_images, num_removed] = count(frame);
+      ThrowUnless(num_removed == 0 || num_removed == num_images,
                   StrCat("RemoveImages: frame ", frame.frame_id,
                          " holds images of a rig that are not all removed"));
     }
     std::vector<Frame>& frames = *model->frames;
     frames.erase(std::remove_if(frames.begin(), frames.end(),
                                 [&](const Frame& f) {
-                                  return !f.data.empty() &&
-                                         removed(static_cast<ImageId>(
-                                             f.data.front().data_id));
+                                  return count(f).second > 0;
                                 }),
                  frames.end());
   }
@@ -364,6 +369,17 @@ std::vector<Reconstruction> DisjointModels(const Reconstruction& base,
     }
     try {
       RemoveImages(shared, &model);
+      // Images that kept no observation are no longer part of the model.
+      std::set<ImageId> empty;
+      for (const auto& [id, image] : model.images) {
+        if (std::none_of(image.points2D.begin(), image.points2D.end(),
+                         [](const Point2D& p) {
+                           return p.point3D_id != kInvalidPoint3DId;
+                         })) {
+          empty.insert(id);
+        }
+      }
+      RemoveImages(empty, &model);
     } catch (const Error&) {
       continue;
     }
@@ -375,13 +391,12 @@ std::vector<Reconstruction> DisjointModels(const Reconstruction& base,
 }
 
 std::vector<Reconstruction> UnmergedModels(
-    const std::vector<Reconstruction>& models, const ModelMergeResult& result,
-    size_t min_images) {
+    const std::vector<Reconstruction>& models, const ModelMergeResult& result) {
   std::vector<Reconstruction> left;
   for (const ModelMergeStep& step : result.steps) {
     if (!step.merged) left.push_back(models.at(step.model));
   }
-  return DisjointModels(result.model, std::move(left), min_images);
+  return left;
 }
 
 }  // namespace hisfm

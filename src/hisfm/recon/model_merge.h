@@ -111,25 +111,24 @@ ModelMergeResult MergeModels(const std::vector<Reconstruction>& models,
 /// Removes the images `image_ids` from `model`: their images, their
 /// observations in the points' tracks, the points left with fewer than two
 /// observations (and the other images' references to them), and the frames
-/// that held only removed images. Ids not in the model are ignored. Throws
-/// hisfm::Error if a frame holds removed and kept images (a rig of several
-/// sensors), leaving `model` unchanged.
+/// whose images (camera data) were all removed. Ids not in the model are
+/// ignored. Throws hisfm::Error if a frame holds removed and kept images (a
+/// rig of several cameras), leaving `model` unchanged.
 void RemoveImages(const std::set<ImageId>& image_ids, Reconstruction* model);
 
-/// `models` without the images of `base` and of the larger ones among them,
-/// largest first, those keeping at least `min_images` images: models that
-/// can be written beside `base` with no image in two of them. A model with
-/// rigs of several sensors that shares images is left out.
+/// `models` without the images of `base` and of the larger ones among them
+/// (and without images left observing no point), largest first, those
+/// keeping at least `min_images` images: models that can be written beside
+/// `base` with no image in two of them. A model with rigs of several
+/// cameras that shares images is left out.
 std::vector<Reconstruction> DisjointModels(const Reconstruction& base,
                                            std::vector<Reconstruction> models,
                                            size_t min_images);
 
-/// The sub-models of `models` that `result` (MergeModels) left out, as
-/// DisjointModels of result.model: what a run reconstructed but could not
-/// join, for the further models of its output (as COLMAP writes one folder
-/// per sub-model).
+/// The sub-models of `models` that `result` (MergeModels) left out, as they
+/// are, in the order of result.steps: what a run reconstructed but could not
+/// join (DisjointModels makes them fit beside the merged model).
 std::vector<Reconstruction> UnmergedModels(
-    const std::vector<Reconstruction>& models, const ModelMergeResult& result,
-    size_t min_images);
+    const std::vector<Reconstruction>& models, const ModelMergeResult& result);
 
 }  // namespace hisfm

@@ -372,6 +372,19 @@ TEST(RemoveImages, DropsObservationsAndPointsLeftWithOne) {
   EXPECT_EQ(frames, (std::vector<uint32_t>{1, 4, 5}));
 }
 
+TEST(RemoveImages, OnlyCameraDataMakeAFrameIncomplete) {
+  Reconstruction model = RowModel(1, 3, Sim3d());
+  AddSingleCameraRigs(&model);
+  // Frame 2 also records an IMU whose data id is 3: image 3 is still a
+  // frame of its own, and removing image 2 removes frame 2 with its IMU.
+  (*model.frames)[1].data.push_back({SensorId{SensorType::kImu, 1}, 3});
+  RemoveImages({2}, &model);
+  EXPECT_EQ(ImageIds(model), (std::vector<ImageId>{1, 3}));
+  std::vector<uint32_t> frames;
+  for (const Frame& f : *model.frames) frames.push_back(f.frame_id);
+  EXPECT_EQ(frames, (std::vector<uint32_t>{1, 3}));
+}
+
 TEST(RemoveImages, RefusesToSplitAFrameOfSeveralImages) {
   Reconstruction model = RowModel(1, 3, Sim3d());
   AddSingleCameraRigs(&model);
@@ -383,7 +396,7 @@ TEST(RemoveImages, RefusesToSplitAFrameOfSeveralImages) {
   EXPECT_EQ(model.NumObservations(), before.NumObservations());
 }
 
-TEST(UnmergedModels, KeepsWhatCouldNotJoinWithoutImagesTwice) {
+TEST(UnmergedModels, WhatCouldNotJoinFitsBesideTheMergedModel) {
   // B shares image 10 with the base but holds it at a pose its points
   // disagree with, so it cannot join; C is too small; D shares nothing.
   Reconstruction b = RowModel(10, 16, SomeFrame(), 100);
@@ -398,7 +411,10 @@ TEST(UnmergedModels, KeepsWhatCouldNotJoinWithoutImagesTwice) {
   const ModelMergeResult result = MergeModels(models);
   ASSERT_EQ(result.base, 0u);
   ASSERT_EQ(result.NumMerged(), 0u);
-  const std::vector<Reconstruction> left = UnmergedModels(models, result, 3);
+  const std::vector<Reconstruction> unmerged = UnmergedModels(models, result);
+  ASSERT_EQ(unmerged.size(), 3u);
+  const std::vector<Reconstruction> left =
+      DisjointModels(result.model, unmerged, 3);
   ASSERT_EQ(left.size(), 2u);
   // B came first (7 images before image 10 went), then D.
   EXPECT_EQ(ImageIds(left[0]),
@@ -407,27 +423,29 @@ TEST(UnmergedModels, KeepsWhatCouldNotJoinWithoutImagesTwice) {
             (std::vector<ImageId>{30, 31, 32, 33, 34, 35}));
   for (const Reconstruction& m : left) ExpectConsistentTracks(m);
   // With a floor of 7 images neither is kept.
-  EXPECT_EQ(UnmergedModels(models, result, 7).size(), 0u);
+  EXPECT_EQ(DisjointModels(result.model, unmerged, 7).size(), 0u);
   // Nothing is left when everything merged.
   const std::vector<Reconstruction> chain = {RowModel(1, 5, Sim3d()),
                                              RowModel(5, 9, SomeFrame())};
-  EXPECT_TRUE(UnmergedModels(chain, MergeModels(chain), 1).empty());
+  EXPECT_TRUE(UnmergedModels(chain, MergeModels(chain)).empty());
 }
 
 TEST(DisjointModels, LargerModelsKeepSharedImages) {
   const Reconstruction base = RowModel(1, 3, Sim3d());
-  const std::vector<Reconstruction> models = {RowModel(3, 6, Sim3d(), 100),
-                                              RowModel(5, 12, Sim3d(), 200)};
-  // 5-12 comes first and keeps 5 and 6; 3-6 keeps only image 4.
+  const std::vector<Reconstruction> models = {RowModel(3, 7, Sim3d(), 100),
+                                              RowModel(10, 13, Sim3d(), 300),
+                                              RowModel(6, 12, Sim3d(), 200)};
+  // 6-12 comes first and keeps its images; 3-7 keeps 4 and 5; 10-13 keeps
+  // only image 13, which observes no point once alone, so nothing.
   std::vector<Reconstruction> out = DisjointModels(base, models, 1);
   ASSERT_EQ(out.size(), 2u);
-  EXPECT_EQ(ImageIds(out[0]),
-            (std::vector<ImageId>{5, 6, 7, 8, 9, 10, 11, 12}));
-  EXPECT_EQ(ImageIds(out[1]), (std::vector<ImageId>{4}));
-  EXPECT_TRUE(out[1].points3D.empty());
-  out = DisjointModels(base, models, 2);
+  EXPECT_EQ(ImageIds(out[0]), (std::vector<ImageId>{6, 7, 8, 9, 10, 11, 12}));
+  EXPECT_EQ(ImageIds(out[1]), (std::vector<ImageId>{4, 5}));
+  EXPECT_EQ(out[1].NumPoints3D(), static_cast<size_t>(kNumPoints));
+  ExpectConsistentTracks(out[1]);
+  out = DisjointModels(base, models, 3);
   ASSERT_EQ(out.size(), 1u);
-  EXPECT_EQ(out[0].NumRegImages(), 8u);
+  EXPECT_EQ(out[0].NumRegImages(), 7u);
 }
 
 TEST(ModelMergeOptions, CheckRejectsOutOfRangeValues) {
