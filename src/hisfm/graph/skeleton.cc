@@ -265,13 +265,14 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
   // A community without any bridge (alone in its component, or cut off by
   // rejected bridges) becomes a scaffold of its own: keep its whole tree.
   // One with a single skeletal image needs none.
-  auto num_skeletal_of = [&](CommunityId c) {
-    size_t n = 0;
-    for (ImageId id : communities.members[c]) n += skeletal.count(id);
-    return n;
-  };
+  std::vector<size_t> num_skeletal(communities.NumCommunities(), 0);
+  for (CommunityId c = 0; c < communities.NumCommunities(); ++c) {
+    for (ImageId id : communities.members[c]) {
+      num_skeletal[c] += skeletal.count(id);
+    }
+  }
   auto needs_tree = [&](CommunityId c) {
-    return communities.members[c].size() >= 2 && num_skeletal_of(c) != 1;
+    return communities.members[c].size() >= 2 && num_skeletal[c] != 1;
   };
   PairScores known;
   if (scorer != nullptr) {
@@ -299,7 +300,7 @@ std::vector<ViewGraphEdge> ConnectSkeletalImages(
   for (CommunityId c = 0; c < communities.NumCommunities(); ++c) {
     if (!needs_tree(c)) continue;
     const std::vector<ImageId>& members = communities.members[c];
-    const bool keep_all = num_skeletal_of(c) == 0;
+    const bool keep_all = num_skeletal[c] == 0;
     auto is_terminal = [&](ImageId id) {
       return keep_all || skeletal.count(id) > 0;
     };

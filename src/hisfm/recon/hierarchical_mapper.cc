@@ -1037,15 +1037,15 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
                            paths.image_path};
     try {
-      const ComponentModel result =
+      ComponentModel result =
           ReconstructComponent(run, comp, in, options, &times);
       const std::string model_dir = StrCat(output.path(), "/", model_index++);
       fs::create_directories(model_dir, ec);
       WriteModelBinary(result.model, model_dir);
       num_registered += result.model.NumRegImages();
       models.push_back(ComponentStats(result, comp, model_index - 1));
-      for (const Reconstruction& model : result.separate) {
-        separate.push_back({model, model_index - 1});
+      for (Reconstruction& model : result.separate) {
+        separate.push_back({std::move(model), model_index - 1});
       }
     } catch (const Interrupted&) {
       throw;

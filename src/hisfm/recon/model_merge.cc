@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <map>
 #include <set>
 #include <unordered_map>
@@ -122,6 +123,17 @@ void AddRigsAndFrames(const Reconstruction& other, const Sim3d& model_from_other
   }
 }
 
+// Erases the point `it` points to from `model`, clearing the references of
+// the images its track holds; returns the iterator past it.
+std::map<Point3DId, Point3D>::iterator ErasePoint(
+    std::map<Point3DId, Point3D>::iterator it, Reconstruction* model) {
+  for (const TrackElement& el : it->second.track) {
+    model->images.at(el.image_id).points2D.at(el.point2D_idx).point3D_id =
+        kInvalidPoint3DId;
+  }
+  return model->points3D.erase(it);
+}
+
 // Adds `other` (mapped by model_from_other) to `model`: `joined` maps
 // other's points to the model's points they were found to be.
 void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
@@ -176,12 +188,7 @@ void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
   }
   for (const Point3DId id : created) {
     const auto it = model->points3D.find(id);
-    if (it->second.track.size() >= 2) continue;
-    for (const TrackElement& el : it->second.track) {
-      model->images.at(el.image_id).points2D[el.point2D_idx].point3D_id =
-          kInvalidPoint3DId;
-    }
-    model->points3D.erase(it);
+    if (it->second.track.size() < 2) ErasePoint(it, model);
   }
 }
 
@@ -340,15 +347,7 @@ void RemoveImages(const std::set<ImageId>& image_ids, Reconstruction* model) {
                                  return removed(e.image_id);
                                }),
                 track.end());
-    if (track.size() >= 2) {
-      ++it;
-      continue;
-    }
-    for (const TrackElement& e : track) {
-      model->images.at(e.image_id).points2D.at(e.point2D_idx).point3D_id =
-          kInvalidPoint3DId;
-    }
-    it = model->points3D.erase(it);
+    it = track.size() >= 2 ? std::next(it) : ErasePoint(it, model);
   }
 }
 
