@@ -189,6 +189,12 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.reseed_rounds", o->reseed_rounds,
         "Rounds of new models on the images left unregistered, merged "
         "into the component's model (0: off)");
+  visit("--HiSfM.join_separate_models", o->join_separate_models,
+        "Join models of the scaffold or the re-seeding that share no image "
+        "with the component's model through the matched 3D points of the "
+        "edges between them");
+  visit("--HiSfM.join_min_inliers", o->join.min_inliers,
+        "Matched 3D points that must agree to join a separate model");
   visit("--colmap_path", o->colmap.colmap_path,
         "The colmap executable");
 }

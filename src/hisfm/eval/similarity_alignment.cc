@@ -40,20 +40,23 @@ bool EstimateSimilarityOn(const std::vector<Eigen::Vector3d>& source,
   return true;
 }
 
-// MSAC score (lower is better) and inlier mask of a candidate.
+// MSAC score (lower is better) and inlier mask of a candidate: each
+// correspondence's squared residual over its squared inlier distance, capped
+// at 1.
 double Score(const Sim3d& sim, const std::vector<Eigen::Vector3d>& source,
-             const std::vector<Eigen::Vector3d>& target, double threshold,
+             const std::vector<Eigen::Vector3d>& target,
+             const std::vector<double>& distances,
              std::vector<size_t>* inliers) {
-  const double threshold_sq = threshold * threshold;
   double score = 0.0;
   inliers->clear();
   for (size_t i = 0; i < source.size(); ++i) {
     const double r_sq = (sim * source[i] - target[i]).squaredNorm();
+    const double threshold_sq = distances[i] * distances[i];
     if (r_sq < threshold_sq) {
       inliers->push_back(i);
-      score += r_sq;
+      score += r_sq / threshold_sq;
     } else {
-      score += threshold_sq;
+      score += 1.0;
     }
   }
   return score;
@@ -116,13 +119,36 @@ SimilarityAlignment AlignSimilarityRobust(
   options.Check();
   ThrowUnless(source.size() == target.size(),
               "AlignSimilarityRobust: point sets differ in size");
+  const double extent = PointSetExtent(target);
+  const double threshold = options.inlier_threshold * extent;
+  if (source.size() < 3 || !(extent > 0.0) || !std::isfinite(threshold)) {
+    SimilarityAlignment result;
+    result.inliers.assign(source.size(), false);
+    return result;
+  }
+  SimilarityAlignment result = AlignSimilarityRobust(
+      source, target, std::vector<double>(source.size(), threshold), options);
+  result.inlier_distance = threshold;
+  return result;
+}
+
+SimilarityAlignment AlignSimilarityRobust(
+    const std::vector<Eigen::Vector3d>& source,
+    const std::vector<Eigen::Vector3d>& target,
+    const std::vector<double>& inlier_distances,
+    const SimilarityAlignmentOptions& options) {
+  options.Check();
+  ThrowUnless(source.size() == target.size() &&
+                  source.size() == inlier_distances.size(),
+              "AlignSimilarityRobust: point sets differ in size");
+  ThrowUnless(std::all_of(inlier_distances.begin(), inlier_distances.end(),
+                          [](double d) { return std::isfinite(d) && d > 0; }),
+              "AlignSimilarityRobust: inlier distances must be finite and > 0");
   SimilarityAlignment result;
   result.inliers.assign(source.size(), false);
   const size_t n = source.size();
-  const double extent = PointSetExtent(target);
-  if (n < 3 || !(extent > 0.0)) return result;
-  const double threshold = options.inlier_threshold * extent;
-  result.inlier_distance = threshold;
+  if (n < 3) return result;
+  const std::vector<double>& threshold = inlier_distances;
 
   std::mt19937 rng(options.random_seed);
   std::uniform_int_distribution<size_t> pick(0, n - 1);

@@ -1,5 +1,5 @@
 // Robust similarity alignment of two corresponding point sets (camera
-// centres of a model and of a reference).
+// centres of a model and of a reference, or the 3D points two models share).
 //
 // Least-squares similarity: S. Umeyama, "Least-Squares Estimation of
 // Transformation Parameters Between Two Point Patterns", TPAMI 1991
@@ -75,7 +75,8 @@ struct SimilarityAlignment {
   /// Per correspondence: aligned within the threshold.
   std::vector<bool> inliers;
   size_t num_inliers = 0;
-  /// The absolute inlier distance used (inlier_threshold * target extent).
+  /// The absolute inlier distance used (inlier_threshold * target extent;
+  /// 0 with distances per correspondence).
   double inlier_distance = 0.0;
 };
 
@@ -85,6 +86,18 @@ struct SimilarityAlignment {
 SimilarityAlignment AlignSimilarityRobust(
     const std::vector<Eigen::Vector3d>& source,
     const std::vector<Eigen::Vector3d>& target,
+    const SimilarityAlignmentOptions& options);
+
+/// As above, with an inlier distance of its own for each correspondence
+/// (finite and > 0; e.g. a fraction of the point's depth, where points
+/// far from the cameras are less precise): source[i] is an inlier when it
+/// lands within inlier_distances[i] of target[i]. options.inlier_threshold
+/// is not used, and the result's inlier_distance is 0. Throws if the sizes
+/// differ or a distance is not finite and positive.
+SimilarityAlignment AlignSimilarityRobust(
+    const std::vector<Eigen::Vector3d>& source,
+    const std::vector<Eigen::Vector3d>& target,
+    const std::vector<double>& inlier_distances,
     const SimilarityAlignmentOptions& options);
 
 }  // namespace hisfm

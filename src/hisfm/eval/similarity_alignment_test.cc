@@ -127,6 +127,35 @@ TEST(SimilarityAlignment, FailsWithoutEnoughPoints) {
       AlignSimilarityRobust(same, same, SimilarityAlignmentOptions()).success);
 }
 
+TEST(SimilarityAlignment, EachCorrespondenceHasItsOwnInlierDistance) {
+  std::mt19937 rng(5);
+  const Sim3d truth = RandomSimilarity(&rng);
+  const std::vector<Eigen::Vector3d> source = RandomPoints(40, &rng);
+  std::vector<Eigen::Vector3d> target;
+  for (const Eigen::Vector3d& p : source) target.push_back(truth * p);
+  // Two points off by 1 unit: one with a loose distance (an inlier), one
+  // with a tight one (an outlier); the others are exact.
+  std::vector<double> distances(source.size(), 0.1);
+  target[3] += Eigen::Vector3d(1, 0, 0);
+  distances[3] = 2.0;
+  target[7] += Eigen::Vector3d(0, 1, 0);
+  const SimilarityAlignment result = AlignSimilarityRobust(
+      source, target, distances, SimilarityAlignmentOptions());
+  ASSERT_TRUE(result.success);
+  EXPECT_TRUE(result.inliers[3]);
+  EXPECT_FALSE(result.inliers[7]);
+  EXPECT_EQ(result.num_inliers, source.size() - 1);
+  EXPECT_EQ(result.inlier_distance, 0.0);
+  distances[0] = 0.0;
+  EXPECT_THROW(AlignSimilarityRobust(source, target, distances,
+                                     SimilarityAlignmentOptions()),
+               Error);
+  distances.pop_back();
+  EXPECT_THROW(AlignSimilarityRobust(source, target, distances,
+                                     SimilarityAlignmentOptions()),
+               Error);
+}
+
 TEST(SimilarityAlignment, OptionsAreChecked) {
   SimilarityAlignmentOptions options;
   options.inlier_threshold = 0.0;

@@ -42,6 +42,7 @@ void HierarchicalMapperOptions::Check() const {
   verifier.Check();
   colmap.Check();
   merge.Check();
+  join.Check();
 }
 
 namespace {
@@ -361,9 +362,11 @@ std::string SharedEvidence(const ModelMergeStep& step) {
 // The model of the numbered sub-model folders under `path` (empty if none):
 // the largest, with the others that share registered images merged into it
 // when `options.merge_sub_models` (model_merge.h; the merged model is
-// written to `path`/merged). Sub-models left out are logged with their sizes.
+// written to `path`/merged). Sub-models left out are logged with their sizes
+// and, when merging, appended to `unmerged` if it is given.
 ModelFolder MergedModel(const std::string& path,
-                        const HierarchicalMapperOptions& options) {
+                        const HierarchicalMapperOptions& options,
+                        std::vector<Reconstruction>* unmerged = nullptr) {
   std::vector<std::string> folders;
   std::vector<Reconstruction> models;
   for (const std::string& folder : ReadableModels(path, &models)) {
@@ -391,10 +394,16 @@ ModelFolder MergedModel(const std::string& path,
                      SharedEvidence(step));
     } else {
       HISFM_LOG_WARN(
-          "dropping sub-model {} ({} registered images; {}); keeping {} ({} "
+          "{} sub-model {} ({} registered images; {}); keeping {} ({} "
           "images)",
+          unmerged && options.merge_sub_models ? "leaving out" : "dropping",
           folders[step.model], step.num_images, SharedEvidence(step), base,
           models[merged.base].NumRegImages());
+    }
+  }
+  if (unmerged && options.merge_sub_models) {
+    for (Reconstruction& model : UnmergedModels(models, merged)) {
+      unmerged->push_back(std::move(model));
     }
   }
   if (!options.merge_sub_models || merged.NumMerged() == 0) {
@@ -495,6 +504,8 @@ struct ScaffoldOutcome {
   ModelFolder model;
   // True when there is no scaffold and the leaves' stage starts from scratch.
   bool fallback = false;
+  // The scaffold's sub-models that could not be merged into `model`.
+  std::vector<Reconstruction> unmerged;
 };
 
 // Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton that
@@ -532,7 +543,8 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
     RunColmapWithProgress(options.colmap, args, run.Log(),
                           "Scaffold: registering images",
                           comp.skeleton_images.size(), ParseMapperProgress);
-    outcome.model = MergedModel(run.dir + "/scaffold", options);
+    outcome.model =
+        MergedModel(run.dir + "/scaffold", options, &outcome.unmerged);
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
@@ -873,14 +885,95 @@ ModelFolder ReseedUnregistered(const ComponentRun& run,
   return current;
 }
 
+// The database's inlier matches of the component's hierarchy and reserve
+// edges between an image of `a` and one of `b`. Not the verifier's cleaned
+// inliers: the join's own robust fit keeps the matches that agree, and on
+// crossing_streets_1000_s7 the cleaning left 8 of the 16 matched points of
+// the two edges between its streets' models.
+std::vector<PairMatches> MatchesBetween(const HierarchyComponent& comp,
+                                        const LoadedInput& in,
+                                        const Reconstruction& a,
+                                        const Reconstruction& b) {
+  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
+  std::vector<PairMatches> out;
+  for (const ImagePair& e : EdgesWithReserve(comp, in, members)) {
+    const bool across =
+        (a.images.count(e.image_id1) && b.images.count(e.image_id2)) ||
+        (b.images.count(e.image_id1) && a.images.count(e.image_id2));
+    if (!across) continue;
+    try {
+      out.push_back(
+          {e, in.database->ReadInlierMatches(e.image_id1, e.image_id2)});
+    } catch (const Error& err) {
+      HISFM_LOG_WARN("join: skipping the edge {}-{}: {}", e.image_id1,
+                     e.image_id2, err.what());
+    }
+  }
+  return out;
+}
+
+// Joins the models of `separate` (of the scaffold or the re-seeding, none
+// sharing an image with the component's model `model`, read from
+// `attached`, nor with each other) that the component's hierarchy and
+// reserve edges tie to it through matched 3D points (MergeThroughMatches),
+// repeating while any joins. Returns the joined model's folder (`attached`
+// if none joined); `separate` keeps the others.
+ModelFolder JoinSeparateModels(const ComponentRun& run,
+                               const HierarchyComponent& comp,
+                               const LoadedInput& in,
+                               const HierarchicalMapperOptions& options,
+                               const ModelFolder& attached,
+                               Reconstruction model,
+                               std::vector<Reconstruction>* separate) {
+  // The last attempt on each model; `separate` changes only once the joined
+  // model is written.
+  std::vector<ModelMergeStep> steps(separate->size());
+  size_t num_joined = 0;
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (size_t i = 0; i < separate->size(); ++i) {
+      if (steps[i].merged) continue;
+      steps[i] = MergeThroughMatches((*separate)[i],
+                                     MatchesBetween(comp, in, model,
+                                                    (*separate)[i]),
+                                     options.join, &model);
+      if (steps[i].merged) {
+        progress = true;
+        ++num_joined;
+      }
+    }
+  }
+  for (const ModelMergeStep& step : steps) {
+    HISFM_LOG_INFO(
+        "{} a separate model of {} images through {} edge(s): {} of {} "
+        "matched points agree",
+        step.merged ? "joined" : "could not join", step.num_images,
+        step.num_pairs, step.num_inliers, step.num_correspondences);
+  }
+  if (num_joined == 0) return attached;
+  const std::string joined_dir = run.dir + "/joined";
+  AtomicDirectory dir(joined_dir);
+  WriteModelBinary(model, dir.path());
+  dir.Commit();
+  std::vector<Reconstruction> left;
+  for (size_t i = 0; i < separate->size(); ++i) {
+    if (!steps[i].merged) left.push_back(std::move((*separate)[i]));
+  }
+  *separate = std::move(left);
+  return {joined_dir, model.NumRegImages(), attached.num_merged + num_joined};
+}
+
 // One component's final model and its scaffold.
 struct ComponentModel {
   Reconstruction model;
   ScaffoldOutcome scaffold;
   // Images the re-seeding registered (ReseedUnregistered).
   size_t num_reseeded = 0;
-  // Models the re-seeding started that could not be joined to `model`,
-  // without its images: written as further models, as colmap does.
+  // Images of separate models joined to the model (JoinSeparateModels).
+  size_t num_joined = 0;
+  // Models of the scaffold or the re-seeding that could not be joined to
+  // `model`, without its images: written as further models, as colmap
+  // does.
   std::vector<Reconstruction> separate;
 };
 
@@ -894,6 +987,10 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
   PrepareComponent(run, comp, in, times);
   ComponentModel out;
   out.scaffold = ReconstructScaffold(run, comp, options, times);
+  // The scaffold's sub-models left out hold images the later stages may
+  // not reach: they are kept with the re-seeded models, joined or written
+  // apart (JoinSeparateModels).
+  out.separate = std::move(out.scaffold.unmerged);
   const ModelFolder rescued = RescueUnregistered(
       run, comp, in, options,
       AttachLeaves(run, comp, options, out.scaffold.model, times), times);
@@ -901,18 +998,30 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
                                                   rescued, times,
                                                   &out.separate);
   out.num_reseeded = attached.num_registered - rescued.num_registered;
-  out.model = ReadModelBinary(RefineModel(run, attached, options, times));
   // Earlier rounds' models overlap later ones, and the attach runs may
   // have registered some of their images.
-  out.separate =
-      DisjointModels(out.model, std::move(out.separate),
-                     static_cast<size_t>(options.min_model_size));
+  Reconstruction model = ReadModelBinary(attached.path);
+  out.separate = DisjointModels(model, std::move(out.separate),
+                                static_cast<size_t>(options.min_model_size));
+  ModelFolder joined = attached;
+  try {
+    if (options.join_separate_models && !out.separate.empty()) {
+      joined = JoinSeparateModels(run, comp, in, options, attached,
+                                  std::move(model), &out.separate);
+    }
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("join: {}; keeping the models apart", e.what());
+  }
+  out.num_joined = joined.num_registered - attached.num_registered;
+  out.model = ReadModelBinary(RefineModel(run, joined, options, times));
   if (!out.separate.empty()) {
     size_t n = 0;
     for (const Reconstruction& m : out.separate) n += m.NumRegImages();
     HISFM_LOG_WARN(
-        "{} image(s) in {} model(s) the re-seeding could not join to the "
-        "component's model: written as further models",
+        "{} image(s) in {} model(s) of the scaffold or the re-seeding could "
+        "not be joined to the component's model: written as further models",
         n, out.separate.size());
   }
   return out;
@@ -928,19 +1037,20 @@ nlohmann::json ComponentStats(const ComponentModel& result,
   stats["scaffold_fallback"] = result.scaffold.fallback;
   stats["scaffold_merged_sub_models"] = result.scaffold.model.num_merged;
   stats["reseeded_images"] = result.num_reseeded;
+  stats["joined_images"] = result.num_joined;
   stats["path"] = std::to_string(index);
   return stats;
 }
 
-// The summary's entry for a model the re-seeding of a component could not
-// join to the component's model (`main_index`); it is model `index`.
+// The summary's entry for a model of the scaffold or the re-seeding of a
+// component that could not be joined to the component's model
+// (`main_index`); it is model `index`.
 nlohmann::json SeparateModelStats(const Reconstruction& model, size_t index,
                                   size_t main_index) {
   nlohmann::json stats = ModelStats(model);
   stats["component_images"] = model.NumRegImages();
   stats["scaffold_images"] = 0;
   stats["scaffold_registered"] = 0;
-  stats["reseeded_images"] = model.NumRegImages();
   stats["separate_from"] = std::to_string(main_index);
   stats["path"] = std::to_string(index);
   return stats;
@@ -1022,7 +1132,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   StageTimes times;
   size_t model_index = 0;
   size_t num_registered = 0;
-  // Models the re-seeding could not join, with their component's model.
+  // Models of a component's scaffold or re-seeding that could not be joined
+  // to it, with their component's model.
   std::vector<std::pair<Reconstruction, size_t>> separate;
   for (size_t c = 0; c < h.components.size(); ++c) {
     const HierarchyComponent& comp = h.components[c];
@@ -1057,8 +1168,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                         {"error", e.what()}});
     }
   }
-  // The re-seeded models no component could join follow every component's
-  // model, so that out/0, out/1, ... stay the components in their order.
+  // The scaffold's and re-seeding's models no component could join follow
+  // every component's model, so that out/0, out/1, ... stay the components in their order.
   for (const auto& [model, main_index] : separate) {
     const std::string model_dir = StrCat(output.path(), "/", model_index++);
     fs::create_directories(model_dir, ec);

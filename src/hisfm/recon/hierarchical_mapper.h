@@ -84,9 +84,20 @@ struct HierarchicalMapperOptions {
   /// stage: new colmap models on them and their registered neighbours (the
   /// hierarchy's and reserve edges only), merged into the component's model
   /// where they share registered images, then attached again; a round runs
-  /// only while the previous one registered more. The last round's models
-  /// that could not be merged are written as further models. 0 turns it off.
+  /// only while the previous one registered more. Every round's models that
+  /// could not be merged (and the scaffold's) are joined through edges
+  /// (join_separate_models) or written as further models. 0 turns it off.
   int reseed_rounds = 2;
+  /// Join the models of the scaffold or the re-seeding that could not be
+  /// merged (they share no image with the component's model) when the component's hierarchy and reserve
+  /// edges between them match 3D points of both that one similarity maps
+  /// onto each other (MergeThroughMatches); the joined model is then refined
+  /// with the rest. False writes them as further models.
+  bool join_separate_models = true;
+  /// How separate models are joined (MergeThroughMatches's thresholds; its
+  /// own, as the points there fix all seven degrees of freedom where a
+  /// shared image's poses fix six).
+  ModelMergeOptions join;
   /// Extra `--Mapper.*` arguments passed to both colmap mapper calls.
   std::vector<std::string> mapper_args;
 
@@ -98,8 +109,9 @@ struct MapperPaths {
   std::string database_path;
   std::string image_path;
   /// Final models go to output_path/0, /1, ...: each component's model,
-  /// then the re-seeded models a component could not join (the summary's
-  /// "separate_from" names the component's model); must be missing or empty.
+  /// then the models of a component's scaffold or re-seeding that could
+  /// not be joined to it (the summary's "separate_from" names the
+  /// component's model); must be missing or empty.
   std::string output_path;
   /// Intermediate databases, scaffolds and logs (kept for inspection);
   /// default output_path + "_work" when empty.

@@ -378,15 +378,16 @@ TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
 }
 
 // When no sub-model can be merged (a merge that needs more shared points
-// than any model has), what the re-seeding registers is not dropped: it is
-// written as further models, each image in one model only.
-TEST(HierarchicalMapper, WritesReseededModelsItCannotJoin) {
+// than any model has) or joined, what the re-seeding registers is not
+// dropped: it is written as further models, each image in one model only.
+TEST(HierarchicalMapper, ReseededModelsAreJoinedOrWrittenApart) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
   const MapperPaths paths =
       SynthScene(tmp, "crossing_streets", 150, 6, true);
   HierarchicalMapperOptions options;
   options.merge.min_inliers = 1000000;
+  options.join_separate_models = false;
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
   ASSERT_GE(summary["models"].size(), 2u)
       << "the scene no longer leaves images to re-seed";
@@ -415,6 +416,36 @@ TEST(HierarchicalMapper, WritesReseededModelsItCannotJoin) {
     EXPECT_TRUE(e.correct) << "model " << k << ": " << e.verdict_reason;
   }
   EXPECT_EQ(summary["registered_images"], total);
+
+  // The same models, joined through the hierarchy's edges between them
+  // (MergeThroughMatches) although they share no image: fewer models, a
+  // larger first one, and it is right.
+  MapperPaths joined_paths = paths;
+  joined_paths.output_path = tmp / "joined";
+  options.join_separate_models = true;
+  const nlohmann::json joined = RunHierarchicalMapper(joined_paths, options);
+  EXPECT_LT(joined["models"].size(), summary["models"].size());
+  const nlohmann::json& first = joined["models"][0];
+  EXPECT_GT(first["joined_images"].get<size_t>(), 0u);
+  EXPECT_GT(first["registered_images"].get<size_t>(),
+            summary["models"][0]["registered_images"].get<size_t>());
+  // Joining moves images between models; it neither adds nor loses any,
+  // and still writes each image in one model only.
+  EXPECT_EQ(joined["registered_images"], summary["registered_images"]);
+  std::set<ImageId> joined_seen;
+  for (size_t k = 0; k < joined["models"].size(); ++k) {
+    const Reconstruction model =
+        ReadModel(tmp / ("joined/" + std::to_string(k)));
+    for (const auto& [id, image] : model.images) {
+      EXPECT_TRUE(joined_seen.insert(id).second) << "image " << id << " twice";
+    }
+  }
+  PoseEvaluationOptions partial;
+  partial.require_all_registered = false;
+  const PoseEvaluation e = EvaluateModel(
+      ReadModel(tmp / "joined/0"), ReadModel(tmp / "scene/ground_truth"),
+      partial);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
 }
 
 // Writes an oracle plug-in's scores: each verified pair's true share of

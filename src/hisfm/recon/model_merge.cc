@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iterator>
 #include <map>
+#include <optional>
 #include <set>
 #include <unordered_map>
 
@@ -42,6 +43,35 @@ struct Correspondence {
   double other_depth = 0;
 };
 
+// The correspondence of keypoint `k_model` of image `model_id` of `model`
+// and keypoint `k_other` of image `other_id` of `other` (both registered),
+// if both observe a 3D point; its depths are in each image.
+std::optional<Correspondence> Correspond(const Reconstruction& model,
+                                         ImageId model_id, size_t k_model,
+                                         const Reconstruction& other,
+                                         ImageId other_id, size_t k_other) {
+  const Image& model_image = model.images.at(model_id);
+  const Image& other_image = other.images.at(other_id);
+  if (k_model >= model_image.points2D.size() ||
+      k_other >= other_image.points2D.size()) {
+    return std::nullopt;
+  }
+  const auto a = model.points3D.find(model_image.points2D[k_model].point3D_id);
+  const auto b = other.points3D.find(other_image.points2D[k_other].point3D_id);
+  if (a == model.points3D.end() || b == other.points3D.end()) {
+    return std::nullopt;
+  }
+  Correspondence c;
+  c.image = model_id;
+  c.model_point = a->first;
+  c.other_point = b->first;
+  c.model_xyz = a->second.xyz;
+  c.other_xyz = b->second.xyz;
+  c.model_depth = (model_image.cam_from_world * c.model_xyz).z();
+  c.other_depth = (other_image.cam_from_world * c.other_xyz).z();
+  return c;
+}
+
 // The shared points of the images registered in both models (with as many
 // keypoints in both; other images are not shared).
 std::vector<Correspondence> SharedObservations(const Reconstruction& other,
@@ -56,18 +86,9 @@ std::vector<Correspondence> SharedObservations(const Reconstruction& other,
     if (mine.size() != image.points2D.size()) continue;
     ++*num_common_images;
     for (size_t k = 0; k < mine.size(); ++k) {
-      const auto a = model.points3D.find(mine[k].point3D_id);
-      const auto b = other.points3D.find(image.points2D[k].point3D_id);
-      if (a == model.points3D.end() || b == other.points3D.end()) continue;
-      Correspondence c;
-      c.image = id;
-      c.model_point = a->first;
-      c.other_point = b->first;
-      c.model_xyz = a->second.xyz;
-      c.other_xyz = b->second.xyz;
-      c.model_depth = (it->second.cam_from_world * c.model_xyz).z();
-      c.other_depth = (image.cam_from_world * c.other_xyz).z();
-      out.push_back(c);
+      const std::optional<Correspondence> c =
+          Correspond(model, id, k, other, id, k);
+      if (c) out.push_back(*c);
     }
   }
   return out;
@@ -192,17 +213,88 @@ void AddModel(const Reconstruction& other, const Sim3d& model_from_other,
   }
 }
 
+// If enough of `corr` agree with `model_from_other` (`inliers`; counts in
+// `step`), adds `other` to `model`, each agreeing point of `other` joined
+// into its model point (the first correspondence of each, and each model
+// point taken once), and marks the step merged.
+void JoinIfAgreed(const Reconstruction& other,
+                  const std::vector<Correspondence>& corr,
+                  const std::vector<bool>& inliers,
+                  const Sim3d& model_from_other,
+                  const ModelMergeOptions& options, ModelMergeStep* step,
+                  Reconstruction* model) {
+  if (step->num_inliers < static_cast<size_t>(options.min_inliers) ||
+      step->num_inliers < options.min_inlier_ratio * corr.size()) {
+    return;
+  }
+  // The observations of the others on shared keypoints stay with the
+  // model's points.
+  std::unordered_map<Point3DId, Point3DId> joined;
+  std::set<Point3DId> taken;
+  for (size_t k = 0; k < corr.size(); ++k) {
+    if (!inliers[k] || joined.count(corr[k].other_point) ||
+        !taken.insert(corr[k].model_point).second) {
+      continue;
+    }
+    joined.emplace(corr[k].other_point, corr[k].model_point);
+  }
+  AddModel(other, model_from_other, joined, model);
+  step->merged = true;
+}
+
+// The correspondences of `pairs` between an image of `model` and one of
+// `other`: each inlier match whose keypoints observe a 3D point in both
+// models, in front of the model's image (depth there > 0), once per pair of
+// points. `num_pairs` counts the pairs that gave any.
+std::vector<Correspondence> MatchedObservations(
+    const Reconstruction& other, const Reconstruction& model,
+    const std::vector<PairMatches>& pairs, size_t* num_pairs) {
+  std::vector<Correspondence> out;
+  std::set<std::pair<Point3DId, Point3DId>> seen;
+  *num_pairs = 0;
+  for (const PairMatches& pm : pairs) {
+    ImageId model_id = pm.pair.image_id1, other_id = pm.pair.image_id2;
+    bool swapped = false;
+    if (!model.images.count(model_id) || !other.images.count(other_id)) {
+      std::swap(model_id, other_id);
+      swapped = true;
+    }
+    if (!model.images.count(model_id) || !other.images.count(other_id)) {
+      continue;
+    }
+    const size_t before = out.size();
+    for (const FeatureMatch& m : pm.matches) {
+      const size_t k_model = swapped ? m.idx2 : m.idx1;
+      const size_t k_other = swapped ? m.idx1 : m.idx2;
+      const std::optional<Correspondence> c =
+          Correspond(model, model_id, k_model, other, other_id, k_other);
+      if (c && c->model_depth > 0 &&
+          seen.insert({c->model_point, c->other_point}).second) {
+        out.push_back(*c);
+      }
+    }
+    if (out.size() > before) ++*num_pairs;
+  }
+  return out;
+}
+
+// A step's counts before any correspondence: `other`'s images, and whether
+// rigs refuse the merge (RigsMergeable).
+ModelMergeStep FirstCounts(const Reconstruction& other,
+                           const Reconstruction& model) {
+  ModelMergeStep step;
+  step.num_images = other.NumRegImages();
+  step.rigs_refused = !RigsMergeable(other, model);
+  return step;
+}
+
 }  // namespace
 
 ModelMergeStep MergeInto(const Reconstruction& other,
                          const ModelMergeOptions& options,
                          Reconstruction* model) {
-  ModelMergeStep step;
-  step.num_images = other.NumRegImages();
-  if (!RigsMergeable(other, *model)) {
-    step.rigs_refused = true;
-    return step;
-  }
+  ModelMergeStep step = FirstCounts(other, *model);
+  if (step.rigs_refused) return step;
   const std::vector<Correspondence> corr =
       SharedObservations(other, *model, &step.num_common_images);
   step.num_correspondences = corr.size();
@@ -247,19 +339,33 @@ ModelMergeStep MergeInto(const Reconstruction& other,
       best = model_from_other;
     }
   }
-  if (step.num_inliers < static_cast<size_t>(options.min_inliers) ||
-      step.num_inliers < options.min_inlier_ratio * corr.size()) {
-    return step;
+  JoinIfAgreed(other, corr, best_inliers, best, options, &step, model);
+  return step;
+}
+
+ModelMergeStep MergeThroughMatches(const Reconstruction& other,
+                                   const std::vector<PairMatches>& pairs,
+                                   const ModelMergeOptions& options,
+                                   Reconstruction* model) {
+  ModelMergeStep step = FirstCounts(other, *model);
+  if (step.rigs_refused) return step;
+  const std::vector<Correspondence> corr =
+      MatchedObservations(other, *model, pairs, &step.num_pairs);
+  step.num_correspondences = corr.size();
+  if (corr.size() < static_cast<size_t>(options.min_inliers)) return step;
+  std::vector<Eigen::Vector3d> source, target;
+  std::vector<double> distances;
+  for (const Correspondence& c : corr) {
+    source.push_back(c.other_xyz);
+    target.push_back(c.model_xyz);
+    distances.push_back(options.max_relative_error * c.model_depth);
   }
-  // A point of `other` joins the model's point it corresponds to when they
-  // agree (the first such correspondence); the observations of the others
-  // on shared keypoints stay with the model's points.
-  std::unordered_map<Point3DId, Point3DId> joined;
-  for (size_t k = 0; k < corr.size(); ++k) {
-    if (best_inliers[k]) joined.emplace(corr[k].other_point, corr[k].model_point);
-  }
-  AddModel(other, best, joined, model);
-  step.merged = true;
+  const SimilarityAlignment fit = AlignSimilarityRobust(
+      source, target, distances, SimilarityAlignmentOptions());
+  if (!fit.success) return step;
+  step.num_inliers = fit.num_inliers;
+  JoinIfAgreed(other, corr, fit.inliers, fit.target_from_source, options,
+               &step, model);
   return step;
 }
 

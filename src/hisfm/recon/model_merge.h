@@ -1,4 +1,6 @@
-// Merging sub-models that share registered images.
+// Merging sub-models that share registered images, and joining models that
+// share none through the matches of verified pairs between them
+// (MergeThroughMatches).
 //
 // When incremental SfM cannot register the next image of a scaffold (a tree
 // bridge that is true but too weak to register across), colmap mapper starts
@@ -24,6 +26,7 @@
 #include <set>
 #include <vector>
 
+#include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 
 namespace hisfm {
@@ -33,13 +36,18 @@ struct ModelMergeOptions {
   /// keypoint of a shared image observing a 3D point in both models) agree
   /// with the similarity. The shared image's two poses already fix all but
   /// the scale; on the synthetic families a single shared image gave 12 to
-  /// 26 such points, with depth ratios within 2% of their median.
+  /// 26 such points, with depth ratios within 2% of their median. 6 merged
+  /// a street re-seeded through the one image at a crossing with 7 of 9
+  /// agreeing (crossing_streets_1000_s7, tuning) at the wrong scale: 73.6%
+  /// of the final model's pairs within 5 degrees, where each street apart
+  /// is right.
   int min_inliers = 8;
   /// ... and at least this share of all shared points.
   double min_inlier_ratio = 0.5;
   /// A shared point agrees when the mapped point lies within this fraction
-  /// of its depth (in the shared image of the model merged into) of the
-  /// model's point.
+  /// of its depth (in the shared image of the model merged into; for
+  /// MergeThroughMatches, in the pair's image of that model) of the model's
+  /// point.
   double max_relative_error = 0.1;
 
   /// Throws hisfm::Error if an option is out of range.
@@ -53,12 +61,16 @@ struct ModelMergeStep {
   /// Registered images of the sub-model.
   size_t num_images = 0;
   /// Registered images it shares with the merged model (with the same
-  /// number of keypoints in both).
+  /// number of keypoints in both; 0 for MergeThroughMatches).
   size_t num_common_images = 0;
+  /// MergeThroughMatches: the pairs between the two models whose matches
+  /// gave correspondences.
+  size_t num_pairs = 0;
   /// Shared points: keypoints of shared images that observe a 3D point in
-  /// both models.
+  /// both models (for MergeThroughMatches: matches whose two keypoints
+  /// observe a 3D point, one in each model).
   size_t num_correspondences = 0;
-  /// Shared points that agree with the best similarity.
+  /// Shared (or matched) points that agree with the best similarity.
   size_t num_inliers = 0;
   /// True if a model has a rig of several sensors, or only one of the two
   /// has rigs and frames: such models are not merged.
@@ -84,10 +96,12 @@ struct ModelMergeResult {
 /// Maps `other` into `model`'s frame through their shared images and adds
 /// it: images only in `other` get their poses (and, with COLMAP 3.12's
 /// single-camera rigs, their frames) moved, the 3D points of the shared
-/// points that agree are joined into one track, the others of `other` are
-/// added as new points (without the observations of keypoints that already
-/// observe a point of `model`; points left with fewer than two observations
-/// are dropped), and cameras and rigs not in `model` are added (a camera in
+/// points that agree are joined into one track (a point of `model` takes
+/// one point of `other`, the first found; another that corresponds to it
+/// is added as a point of its own, so that no track observes an image
+/// twice), the others of `other` are added as new points (without the
+/// observations of keypoints that already observe a point of `model`;
+/// points left with fewer than two observations are dropped), and cameras and rigs not in `model` are added (a camera in
 /// both keeps `model`'s intrinsics). Returns the step's counts; `model` is
 /// changed only if merged. Both models must come from one database (image,
 /// camera and keypoint ids mean the same) and hold finite values, as
@@ -95,6 +109,32 @@ struct ModelMergeResult {
 ModelMergeStep MergeInto(const Reconstruction& other,
                          const ModelMergeOptions& options,
                          Reconstruction* model);
+
+/// A verified pair and its inlier matches, as the database stores them
+/// (idx1 indexes the keypoints of pair.image_id1).
+struct PairMatches {
+  ImagePair pair;
+  std::vector<FeatureMatch> matches;
+};
+
+/// Maps `other` into `model`'s frame through verified pairs between an
+/// image of each (the two models need share no image) and adds it as
+/// MergeInto does. A match whose keypoints observe a 3D point in both
+/// models is a correspondence of the two points; the similarity is the
+/// robust fit of the correspondences (AlignSimilarityRobust, fixed seed)
+/// under which a point agrees when it lands within max_relative_error of its
+/// depth, in the pair's image of `model`, of the model's point. The counts
+/// and thresholds are MergeInto's (min_inliers, min_inlier_ratio); points
+/// that agree are joined into one track. Pairs whose two images are not one
+/// in each model are ignored. Where MergeInto needs a common image, this
+/// joins models that 2D-2D matches alone tie together (3D-3D
+/// correspondences through the matches, fitted by Umeyama's least squares
+/// inside RANSAC): a model that a street crossing or a weak bridge split off
+/// is joined through the pairs the hierarchy verified between them.
+ModelMergeStep MergeThroughMatches(const Reconstruction& other,
+                                   const std::vector<PairMatches>& pairs,
+                                   const ModelMergeOptions& options,
+                                   Reconstruction* model);
 
 /// The index of the model with most registered images (the first on a
 /// tie; 0 for an empty list).

@@ -349,6 +349,128 @@ std::vector<ImageId> ImageIds(const Reconstruction& model) {
   return ids;
 }
 
+// The pair (a, b) of two row images, keypoint k of `a` matched to keypoint
+// (k + shift) % kNumPoints of `b`, stored as the database stores it.
+PairMatches RowPair(ImageId a, ImageId b, int shift = 0, int count = kNumPoints) {
+  PairMatches pm;
+  pm.pair = ImagePair(a, b);
+  for (int k = 0; k < count; ++k) {
+    const Point2DIdx ka = static_cast<Point2DIdx>(k);
+    const Point2DIdx kb = static_cast<Point2DIdx>((k + shift) % kNumPoints);
+    pm.matches.push_back(a < b ? FeatureMatch{ka, kb} : FeatureMatch{kb, ka});
+  }
+  return pm;
+}
+
+TEST(MergeThroughMatches, JoinsModelsWithoutSharedImagesThroughAPair) {
+  // The model holds the row's first or last images, `other` the rest in
+  // another frame: the pair's lower id is in either of them.
+  for (const bool model_first : {true, false}) {
+    Reconstruction model =
+        model_first ? RowModel(1, 4, Sim3d()) : RowModel(6, 9, Sim3d());
+    const Reconstruction other = model_first
+                                     ? RowModel(6, 9, SomeFrame(), 1000)
+                                     : RowModel(1, 4, SomeFrame(), 1000);
+    const ModelMergeStep step =
+        MergeThroughMatches(other, {RowPair(4, 6)}, {}, &model);
+    EXPECT_TRUE(step.merged);
+    EXPECT_EQ(step.num_common_images, 0u);
+    EXPECT_EQ(step.num_pairs, 1u);
+    EXPECT_EQ(step.num_correspondences, static_cast<size_t>(kNumPoints));
+    EXPECT_EQ(step.num_inliers, static_cast<size_t>(kNumPoints));
+    ASSERT_EQ(model.NumRegImages(), 8u);
+    ExpectRowPoses(model);
+    // The matched points are joined into one track over all eight images.
+    EXPECT_EQ(model.NumPoints3D(), static_cast<size_t>(kNumPoints));
+    for (const auto& [pid, point] : model.points3D) {
+      EXPECT_EQ(point.track.size(), 8u);
+    }
+    ExpectConsistentTracks(model);
+  }
+}
+
+TEST(MergeThroughMatches, ReadsEachSideOfAMatchWithItsImage) {
+  // `other`'s keypoint k observes point (k + 5) % kNumPoints: keypoint k of
+  // image 4 and keypoint k - 5 of image 6 see one point. The pair is
+  // stored with the lower id first whichever model holds it.
+  const auto permuted = [](Reconstruction model) {
+    for (auto& [id, image] : model.images) {
+      std::vector<Point2D> moved(kNumPoints);
+      for (int k = 0; k < kNumPoints; ++k) {
+        moved[k] = image.points2D[(k + 5) % kNumPoints];
+      }
+      image.points2D = moved;
+    }
+    for (auto& [pid, point] : model.points3D) {
+      for (TrackElement& el : point.track) {
+        el.point2D_idx = static_cast<Point2DIdx>(
+            (el.point2D_idx + kNumPoints - 5) % kNumPoints);
+      }
+    }
+    return model;
+  };
+  for (const bool model_first : {true, false}) {
+    Reconstruction model =
+        model_first ? RowModel(1, 4, Sim3d()) : permuted(RowModel(6, 9, Sim3d()));
+    const Reconstruction other = model_first
+                                     ? permuted(RowModel(6, 9, SomeFrame(), 1000))
+                                     : RowModel(1, 4, SomeFrame(), 1000);
+    // Image 4's keypoint k matches image 6's keypoint k - 5.
+    const ModelMergeStep step = MergeThroughMatches(
+        other, {RowPair(4, 6, kNumPoints - 5)}, {}, &model);
+    EXPECT_TRUE(step.merged) << "model_first " << model_first;
+    EXPECT_EQ(step.num_inliers, static_cast<size_t>(kNumPoints));
+    ExpectRowPoses(model);
+    ExpectConsistentTracks(model);
+  }
+}
+
+TEST(MergeThroughMatches, RefusesAPairMatchedOneRepeatOver) {
+  // Every keypoint matched to another point's keypoint, as a doppelganger
+  // pair matches one facade period over: no similarity maps the points.
+  Reconstruction model = RowModel(1, 4, Sim3d());
+  const Reconstruction other = RowModel(6, 9, SomeFrame(), 1000);
+  const Reconstruction before = model;
+  const ModelMergeStep step =
+      MergeThroughMatches(other, {RowPair(4, 6, 7)}, {}, &model);
+  EXPECT_FALSE(step.merged);
+  EXPECT_EQ(step.num_correspondences, static_cast<size_t>(kNumPoints));
+  EXPECT_LT(step.num_inliers, static_cast<size_t>(kNumPoints) / 2);
+  EXPECT_EQ(model.NumRegImages(), before.NumRegImages());
+  EXPECT_EQ(model.NumPoints3D(), before.NumPoints3D());
+}
+
+TEST(MergeThroughMatches, NeedsEnoughMatchedPointsAcrossTheModels) {
+  Reconstruction model = RowModel(1, 4, Sim3d());
+  const Reconstruction other = RowModel(6, 9, SomeFrame(), 1000);
+  // A pair inside one model and a pair of images in neither are ignored.
+  ModelMergeStep step = MergeThroughMatches(
+      other, {RowPair(2, 3), RowPair(5, 10)}, {}, &model);
+  EXPECT_FALSE(step.merged);
+  EXPECT_EQ(step.num_pairs, 0u);
+  EXPECT_EQ(step.num_correspondences, 0u);
+  // Fewer matched points than min_inliers.
+  ModelMergeOptions options;
+  options.min_inliers = 8;
+  step = MergeThroughMatches(other, {RowPair(4, 6, 0, 7)}, options, &model);
+  EXPECT_FALSE(step.merged);
+  EXPECT_EQ(step.num_correspondences, 7u);
+  EXPECT_EQ(model.NumRegImages(), 4u);
+  // Keypoints without a 3D point give no correspondence.
+  Reconstruction sparse = other;
+  for (auto& [id, image] : sparse.images) {
+    for (int k = 0; k < kNumPoints / 2; ++k) {
+      image.points2D[k].point3D_id = kInvalidPoint3DId;
+    }
+  }
+  for (int k = 0; k < kNumPoints / 2; ++k) sparse.points3D.erase(1001 + k);
+  step = MergeThroughMatches(sparse, {RowPair(4, 6)}, {}, &model);
+  EXPECT_TRUE(step.merged);
+  EXPECT_EQ(step.num_correspondences, static_cast<size_t>(kNumPoints / 2));
+  ExpectRowPoses(model);
+  ExpectConsistentTracks(model);
+}
+
 TEST(RemoveImages, DropsObservationsAndPointsLeftWithOne) {
   Reconstruction model = RowModel(1, 5, Sim3d());
   // Point 1 is seen by images 1 and 2 only.
