@@ -148,7 +148,6 @@ SimilarityAlignment AlignSimilarityRobust(
   result.inliers.assign(source.size(), false);
   const size_t n = source.size();
   if (n < 3) return result;
-  const std::vector<double>& threshold = inlier_distances;
 
   std::mt19937 rng(options.random_seed);
   std::uniform_int_distribution<size_t> pick(0, n - 1);
@@ -162,7 +161,7 @@ SimilarityAlignment AlignSimilarityRobust(
     while (sample[2] == sample[0] || sample[2] == sample[1]);
     Sim3d candidate;
     if (!EstimateSimilarityOn(source, target, sample, &candidate)) continue;
-    double score = Score(candidate, source, target, threshold, &inliers);
+    double score = Score(candidate, source, target, inlier_distances, &inliers);
     if (score >= best_score) continue;
     // Local optimisation: refit on the inliers while the score improves.
     for (int refit = 0; refit < options.num_local_refits; ++refit) {
@@ -170,7 +169,7 @@ SimilarityAlignment AlignSimilarityRobust(
       if (!EstimateSimilarityOn(source, target, inliers, &refined)) break;
       std::vector<size_t> refined_inliers;
       const double refined_score =
-          Score(refined, source, target, threshold, &refined_inliers);
+          Score(refined, source, target, inlier_distances, &refined_inliers);
       if (refined_score >= score) break;
       candidate = refined;
       score = refined_score;
@@ -187,7 +186,7 @@ SimilarityAlignment AlignSimilarityRobust(
   if (EstimateSimilarityOn(source, target, best_inliers, &final_sim)) {
     std::vector<size_t> final_inliers;
     const double final_score =
-        Score(final_sim, source, target, threshold, &final_inliers);
+        Score(final_sim, source, target, inlier_distances, &final_inliers);
     if (final_score <= best_score) {
       best = final_sim;
       best_inliers = final_inliers;

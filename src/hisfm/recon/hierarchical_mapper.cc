@@ -885,18 +885,17 @@ ModelFolder ReseedUnregistered(const ComponentRun& run,
   return current;
 }
 
-// The database's inlier matches of the component's hierarchy and reserve
-// edges between an image of `a` and one of `b`. Not the verifier's cleaned
+// The database's inlier matches of the edges of `edges` between an image of
+// `a` and one of `b`. Not the verifier's cleaned
 // inliers: the join's own robust fit keeps the matches that agree, and on
 // crossing_streets_1000_s7 the cleaning left 8 of the 16 matched points of
 // the two edges between its streets' models.
-std::vector<PairMatches> MatchesBetween(const HierarchyComponent& comp,
+std::vector<PairMatches> MatchesBetween(const std::set<ImagePair>& edges,
                                         const LoadedInput& in,
                                         const Reconstruction& a,
                                         const Reconstruction& b) {
-  const std::set<ImageId> members(comp.images.begin(), comp.images.end());
   std::vector<PairMatches> out;
-  for (const ImagePair& e : EdgesWithReserve(comp, in, members)) {
+  for (const ImagePair& e : edges) {
     const bool across =
         (a.images.count(e.image_id1) && b.images.count(e.image_id2)) ||
         (b.images.count(e.image_id1) && a.images.count(e.image_id2));
@@ -928,13 +927,15 @@ ModelFolder JoinSeparateModels(const ComponentRun& run,
   // The last attempt on each model; `separate` changes only once the joined
   // model is written.
   std::vector<ModelMergeStep> steps(separate->size());
+  const std::set<ImagePair> edges = EdgesWithReserve(
+      comp, in, std::set<ImageId>(comp.images.begin(), comp.images.end()));
   size_t num_joined = 0;
   for (bool progress = true; progress;) {
     progress = false;
     for (size_t i = 0; i < separate->size(); ++i) {
       if (steps[i].merged) continue;
       steps[i] = MergeThroughMatches((*separate)[i],
-                                     MatchesBetween(comp, in, model,
+                                     MatchesBetween(edges, in, model,
                                                     (*separate)[i]),
                                      options.join, &model);
       if (steps[i].merged) {

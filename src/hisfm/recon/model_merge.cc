@@ -43,15 +43,16 @@ struct Correspondence {
   double other_depth = 0;
 };
 
-// The correspondence of keypoint `k_model` of image `model_id` of `model`
-// and keypoint `k_other` of image `other_id` of `other` (both registered),
-// if both observe a 3D point; its depths are in each image.
+// The correspondence of keypoint `k_model` of `model_image` (image
+// `model_id` of `model`) and keypoint `k_other` of `other_image` (of
+// `other`), if both observe a 3D point; its depths are in each image.
 std::optional<Correspondence> Correspond(const Reconstruction& model,
-                                         ImageId model_id, size_t k_model,
+                                         ImageId model_id,
+                                         const Image& model_image,
+                                         size_t k_model,
                                          const Reconstruction& other,
-                                         ImageId other_id, size_t k_other) {
-  const Image& model_image = model.images.at(model_id);
-  const Image& other_image = other.images.at(other_id);
+                                         const Image& other_image,
+                                         size_t k_other) {
   if (k_model >= model_image.points2D.size() ||
       k_other >= other_image.points2D.size()) {
     return std::nullopt;
@@ -87,7 +88,7 @@ std::vector<Correspondence> SharedObservations(const Reconstruction& other,
     ++*num_common_images;
     for (size_t k = 0; k < mine.size(); ++k) {
       const std::optional<Correspondence> c =
-          Correspond(model, id, k, other, id, k);
+          Correspond(model, id, it->second, k, other, image, k);
       if (c) out.push_back(*c);
     }
   }
@@ -259,7 +260,10 @@ std::vector<Correspondence> MatchedObservations(
       std::swap(model_id, other_id);
       swapped = true;
     }
-    if (!model.images.count(model_id) || !other.images.count(other_id)) {
+    const auto model_image = model.images.find(model_id);
+    const auto other_image = other.images.find(other_id);
+    if (model_image == model.images.end() ||
+        other_image == other.images.end()) {
       continue;
     }
     const size_t before = out.size();
@@ -267,7 +271,8 @@ std::vector<Correspondence> MatchedObservations(
       const size_t k_model = swapped ? m.idx2 : m.idx1;
       const size_t k_other = swapped ? m.idx1 : m.idx2;
       const std::optional<Correspondence> c =
-          Correspond(model, model_id, k_model, other, other_id, k_other);
+          Correspond(model, model_id, model_image->second, k_model, other,
+                     other_image->second, k_other);
       if (c && c->model_depth > 0 &&
           seen.insert({c->model_point, c->other_point}).second) {
         out.push_back(*c);
