@@ -61,6 +61,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.rank_tiers", h.skeleton.rank_tiers,
         "Trees take bridges by neighbour rank tiers 1..N before weight "
         "(0: by weight, as Algorithm 1)");
+  visit("--HiSfM.max_bridge_rank", h.skeleton.max_bridge_rank,
+        "Leave out bridges beyond this neighbour rank of either image "
+        "(0: keep every rank)");
   visit("--HiSfM.intra_consistent_weights",
         h.skeleton.intra_consistent_weights,
         "Join a community's skeletal images by weights scaled by the share "

@@ -42,6 +42,7 @@ void SkeletonOptions::Check() const {
                          max_cycle_rotation_deg <= 180.0,
                      "in [0.0, 180.0]");
   HISFM_CHECK_OPTION(rank_tiers, rank_tiers >= 0, ">= 0");
+  HISFM_CHECK_OPTION(max_bridge_rank, max_bridge_rank >= 0, ">= 0");
 }
 
 double SkeletonOptions::ThresholdFor(BridgeRole role, int tree) const {
@@ -173,6 +174,7 @@ BridgeRecord MakeRecord(const Bridge& b, double score, bool accepted,
   r.community1 = b.c1;
   r.community2 = b.c2;
   r.weight = b.weight;
+  r.rank = b.rank;
   r.score = score;
   r.accepted = accepted;
   r.role = role;
@@ -427,23 +429,29 @@ class SkeletonBuilder {
         scorer_(scorer),
         held_communities_(communities.NumCommunities()) {
     skeleton_.num_trees = options.NumTreesFor(graph.NumImages());
-    const std::vector<uint32_t> ranks = options.rank_tiers > 0
-                                            ? MutualRanks(graph)
-                                            : std::vector<uint32_t>();
+    const std::vector<uint32_t> ranks =
+        options.rank_tiers > 0 || options.max_bridge_rank > 0
+            ? MutualRanks(graph)
+            : std::vector<uint32_t>();
     for (size_t k = 0; k < graph.NumEdges(); ++k) {
       const ViewGraphEdge& e = graph.Edges()[k];
       const CommunityId a = communities.Of(e.pair.image_id1);
       const CommunityId b = communities.Of(e.pair.image_id2);
-      if (a != b) {
-        bridges_.push_back(
-            {e.pair, a, b, e.weight, 0, ranks.empty() ? 0 : ranks[k]});
+      if (a == b) continue;
+      const uint32_t rank = ranks.empty() ? 0 : ranks[k];
+      if (options.max_bridge_rank > 0 &&
+          rank > static_cast<uint32_t>(options.max_bridge_rank)) {
+        ++skeleton_.num_rank_excluded;
+        continue;
       }
+      bridges_.push_back({e.pair, a, b, e.weight, 0, rank});
     }
     std::stable_sort(bridges_.begin(), bridges_.end(),
                      [](const Bridge& x, const Bridge& y) {
                        return x.weight > y.weight;
                      });
-    skeleton_.num_candidate_bridges = bridges_.size();
+    skeleton_.num_candidate_bridges =
+        bridges_.size() + skeleton_.num_rank_excluded;
     for (Bridge& b : bridges_) {
       const CommunityPair kappa = MakeCommunityPair(b.c1, b.c2);
       auto [it, inserted] =

@@ -138,6 +138,13 @@ struct SkeletonOptions {
   /// mutual k-nearest-neighbour graph, as the communities use for k = 1).
   /// Only the trees use this order; redundant bridges keep weight order.
   int rank_tiers = 4;
+  /// Bridges whose rank (as for rank_tiers) exceeds this are not bridges
+  /// the skeleton may take, in any role (not scored, not counted as
+  /// rejected: Skeleton::num_rank_excluded); 0 takes every rank. A
+  /// deviation from Algorithm 1, off by default: the doppelganger bridges
+  /// the builtin accepts on the 1,000-image crossing streets rank 13 to 19,
+  /// the true ones mostly 8 or less (docs/decisions.md, fourteenth session).
+  int max_bridge_rank = 0;
 
   /// Weigh the intra-community edges that join a community's skeletal
   /// images by the share of their inliers that agree with the pose the
@@ -167,6 +174,10 @@ struct BridgeRecord {
   CommunityId community1 = kInvalidCommunityId;
   CommunityId community2 = kInvalidCommunityId;
   uint32_t weight = 0;
+  /// The larger of its places among its two images' pairs by weight
+  /// (1 = the strongest); 0 if neither rank_tiers nor max_bridge_rank
+  /// asked for ranks.
+  uint32_t rank = 0;
   /// The scorer's score; negative if the bridge was rejected by its cycle
   /// (SkeletonOptions::max_cycle_rotation_deg) before being scored.
   double score = 1.0;
@@ -193,6 +204,8 @@ struct Skeleton {
   std::vector<ImageId> images;
   /// Number of candidate bridges (verified pairs across communities).
   size_t num_candidate_bridges = 0;
+  /// Candidate bridges left out by SkeletonOptions::max_bridge_rank.
+  size_t num_rank_excluded = 0;
   /// Number of pairs scored by the verifier (each at most once).
   size_t num_verified = 0;
   /// Number of calls into the scorer (batches).

@@ -498,6 +498,36 @@ TEST(Skeleton, RankTiersTakeMutuallyStrongBridgesBeforeHeavierOnes) {
   EXPECT_THROW(options.Check(), Error);
 }
 
+TEST(Skeleton, MaxBridgeRankLeavesOutBridgesFarDownTheirImagesLists) {
+  const ViewGraph g = RankedBridges();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options = OneTreeByWeight();
+  using RoleSet = std::set<std::pair<ImagePair, BridgeRole>>;
+  // With (2,3) rejected, only (1,4) (rank 4) joins A-B; a cap at rank 3
+  // leaves it out, unscored, and A-B stays apart.
+  options.rank_tiers = 3;
+  options.max_bridge_rank = 3;
+  RecordingScorer scorer;
+  scorer.reject = {ImagePair(2, 3)};
+  const Skeleton capped = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(scorer.calls,
+            (std::vector<ImagePair>{ImagePair(1, 5), ImagePair(2, 3)}));
+  EXPECT_EQ(Roles(capped.bridges),
+            (RoleSet{{ImagePair(1, 5), BridgeRole::kTree}}));
+  EXPECT_EQ(capped.num_rank_excluded, 1u);
+  EXPECT_EQ(capped.num_candidate_bridges, 4u);
+  // At rank 4 it is a bridge again (and without tiers the cap still ranks).
+  options.rank_tiers = 0;
+  options.max_bridge_rank = 4;
+  const Skeleton at_four = BuildSkeleton(g, c, nullptr, options);
+  EXPECT_EQ(Roles(at_four.bridges),
+            (RoleSet{{ImagePair(1, 5), BridgeRole::kTree},
+                    {ImagePair(1, 4), BridgeRole::kTree}}));
+  EXPECT_EQ(at_four.num_rank_excluded, 0u);
+  options.max_bridge_rank = -1;
+  EXPECT_THROW(options.Check(), Error);
+}
+
 // Communities A = {1, 2}, B = {3, 4}, C = {5, 6} joined only by weak
 // bridges: A-B (1,3) 40, (2,4) 30, (2,3) 20; A-C (1,5) 45, (2,6) 35.
 ViewGraph WeaklyJoinedCommunities() {
