@@ -141,9 +141,10 @@ struct SkeletonOptions {
   /// Bridges whose rank (as for rank_tiers) exceeds this are not bridges
   /// the skeleton may take, in any role (not scored, not counted as
   /// rejected: Skeleton::num_rank_excluded); 0 takes every rank. A
-  /// deviation from Algorithm 1, off by default: the doppelganger bridges
-  /// the builtin accepts on the 1,000-image crossing streets rank 13 to 19,
-  /// the true ones mostly 8 or less (docs/decisions.md, fourteenth session).
+  /// deviation from Algorithm 1, measured and rejected as a default: at 12
+  /// it split crossing_streets_1000_s1 and crossing_streets_150_s1 (true
+  /// bridges of rank 13 to 21 were their only links), at 16 it gained
+  /// nothing (docs/decisions.md, fourteenth session).
   int max_bridge_rank = 0;
 
   /// Weigh the intra-community edges that join a community's skeletal
