@@ -5,7 +5,8 @@
 // build's `hisfm mapper` on it and, with --colmap 1, vanilla `colmap mapper`,
 // judges both against the ground truth with the project's evaluator (correct:
 // at least 95% of image pairs within 5 degrees in relative rotation and
-// translation direction, every image registered, not split), and prints a
+// translation direction, 95% of camera centres within 5% of the scene extent
+// after alignment, every image registered, not split), and prints a
 // Markdown table with one row per instance and a summary per family and per
 // split (means over instances; a failed run or one without a model counts
 // as 0% of pairs within 5 degrees).

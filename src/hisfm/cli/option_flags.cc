@@ -255,6 +255,15 @@ void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
                 "Fraction of pairs within the threshold needed for "
                 "'correct'")
       ->capture_default_str();
+  AddOptionFlag(app, flags, "--center_threshold", options->center_threshold,
+                "An aligned camera centre is right within this fraction of "
+                "the scene extent")
+      ->capture_default_str();
+  AddOptionFlag(app, flags, "--min_correct_center_fraction",
+                options->min_correct_center_fraction,
+                "Fraction of camera centres within --center_threshold "
+                "needed for 'correct' (0: no centre check)")
+      ->capture_default_str();
   AddOptionFlag(app, flags, "--require_all_registered",
                 options->require_all_registered,
                 "'correct' needs every reference image registered")

@@ -61,8 +61,9 @@ CLI::Option* AddOptionFlag(CLI::App& app, OptionFlagMap* flags,
 }
 
 /// Adds the options of the pose evaluation (`hisfm evaluate`):
-/// --verdict_threshold_deg, --min_correct_pair_fraction,
-/// --require_all_registered, --min_model_size, --alignment_inlier_threshold;
+/// --verdict_threshold_deg, --min_correct_pair_fraction, --center_threshold,
+/// --min_correct_center_fraction, --require_all_registered, --min_model_size,
+/// --alignment_inlier_threshold;
 /// `flags` records the option each flag sets (CheckOptionFlags).
 void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
                             OptionFlagMap* flags);

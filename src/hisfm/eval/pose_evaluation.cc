@@ -190,6 +190,11 @@ void PoseEvaluationOptions::Check() const {
                      min_correct_pair_fraction >= 0.0 &&
                      min_correct_pair_fraction <= 1.0,
                      "in [0.0, 1.0]");
+  HISFM_CHECK_OPTION(center_threshold, center_threshold > 0.0, "> 0.0");
+  HISFM_CHECK_OPTION(min_correct_center_fraction,
+                     min_correct_center_fraction >= 0.0 &&
+                     min_correct_center_fraction <= 1.0,
+                     "in [0.0, 1.0]");
   HISFM_CHECK_OPTION(min_model_size, min_model_size >= 1, ">= 1");
   alignment.Check();
 }
@@ -249,6 +254,8 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
   eval.aligned = alignment.success;
   eval.median_center_error = kNaN;
   eval.mean_center_error = kNaN;
+  eval.center_threshold = options.center_threshold;
+  eval.center_fraction_within = kNaN;
   if (alignment.success) {
     eval.reference_from_model = alignment.target_from_source;
     eval.num_alignment_inliers = alignment.num_inliers;
@@ -270,6 +277,8 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
     }
     eval.median_center_error = Median(center_errors);
     eval.mean_center_error = sum / static_cast<double>(center_errors.size());
+    eval.center_fraction_within =
+        FractionWithin(center_errors, options.center_threshold);
   }
 
   std::vector<std::string> reasons;
@@ -286,6 +295,15 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
                              ThresholdList({options.verdict_threshold_deg}),
                              " deg (needs ",
                              Percent(options.min_correct_pair_fraction), ")"));
+  }
+  if (eval.aligned &&
+      eval.center_fraction_within < options.min_correct_center_fraction) {
+    reasons.push_back(StrCat(Percent(eval.center_fraction_within),
+                             " of camera centres within ",
+                             Percent(options.center_threshold),
+                             " of the scene extent (needs ",
+                             Percent(options.min_correct_center_fraction),
+                             ")"));
   }
   eval.correct = reasons.empty();
   for (size_t i = 0; i < reasons.size(); ++i) {
@@ -376,6 +394,8 @@ nlohmann::json ToJson(const PoseEvaluation& e) {
   centers["reference_extent"] = e.reference_extent;
   centers["median_error"] = NumberOrNull(e.median_center_error);
   centers["mean_error"] = NumberOrNull(e.mean_center_error);
+  centers["threshold"] = e.center_threshold;
+  centers["fraction_within"] = NumberOrNull(e.center_fraction_within);
   if (e.aligned) {
     const Sim3d& s = e.reference_from_model;
     centers["reference_from_model"] = {
@@ -450,7 +470,8 @@ std::string FormatPoseEvaluation(const PoseEvaluation& e) {
                   e.num_alignment_inliers, "/", e.num_registered,
                   " inliers): median error ", Fixed(e.median_center_error, 4),
                   ", mean ", Fixed(e.mean_center_error, 4),
-                  " of the scene extent\n");
+                  " of the scene extent; ", Percent(e.center_fraction_within),
+                  " within ", Percent(e.center_threshold), "\n");
   } else {
     out += "camera centres: not aligned (fewer than 3 common images)\n";
   }

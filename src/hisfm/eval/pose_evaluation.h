@@ -37,6 +37,16 @@ struct PoseEvaluationOptions {
   double min_correct_pair_fraction = 0.95;
   /// The verdict needs every reference image to be registered.
   bool require_all_registered = true;
+  /// An image's camera centre is right when, after the robust alignment, it
+  /// lies within this fraction of the reference extent of its reference
+  /// centre (the alignment's own inlier threshold by default). Relative
+  /// directions cannot show a stretch of collinear cameras that slides,
+  /// shrinks or flips along a straight street; the centres do.
+  double center_threshold = 0.05;
+  /// The verdict needs at least this fraction of the commonly registered
+  /// images with their centres within center_threshold (checked when the
+  /// centres could be aligned; 0 turns the check off).
+  double min_correct_center_fraction = 0.95;
   /// EvaluateModels: models with at least this many reference images count
   /// towards over-splitting. (The paper ignores extra models under 16 images
   /// on Heinly et al.'s larger scenes; the yan2017 scenes have 21 to 64.)
@@ -91,9 +101,14 @@ struct PoseEvaluation {
   /// camera (NaN if not aligned).
   std::vector<double> image_center_errors;
   std::vector<double> image_rotation_errors_deg;
+  /// options.center_threshold, and the fraction of the commonly registered
+  /// images whose centre error is within it (NaN if not aligned).
+  double center_threshold = 0.0;
+  double center_fraction_within = 0.0;
 
-  /// All reference images registered (if required) and enough pairs within
-  /// the verdict threshold.
+  /// All reference images registered (if required), enough pairs within
+  /// the verdict threshold and, if aligned, enough camera centres within
+  /// the centre threshold.
   bool correct = false;
   /// Why the verdict is "incorrect" (empty if correct).
   std::string verdict_reason;

@@ -138,6 +138,73 @@ TEST(PoseEvaluation, FoldedCamerasAreIncorrect) {
             std::string::npos);
 }
 
+// Cameras along a straight street: centre i at (i, 0, 0.05 (i mod 2)), all
+// looking down +y at one facade.
+Reconstruction MakeStreetModel(int n) {
+  Reconstruction model = MakeCircleModel(1);
+  model.images.clear();
+  Eigen::Matrix3d world_from_cam;
+  world_from_cam << Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitZ(),
+      Eigen::Vector3d::UnitY();
+  for (int i = 0; i < n; ++i) {
+    Image image;
+    image.image_id = static_cast<ImageId>(i + 1);
+    image.camera_id = 1;
+    image.name = "street" + std::to_string(1000 + i) + ".jpg";
+    image.cam_from_world.rotation =
+        Eigen::Quaterniond(world_from_cam.transpose());
+    image.cam_from_world.translation =
+        -(image.cam_from_world.rotation *
+          Eigen::Vector3d(i, 0.0, 0.05 * (i % 2)));
+    model.images[image.image_id] = image;
+  }
+  return model;
+}
+
+TEST(PoseEvaluation, StretchSlidAlongAStreetFailsOnlyTheCentreCheck) {
+  const int n = 60, k = 10;
+  const Reconstruction reference = MakeStreetModel(n);
+  // The last 10 cameras slide 20 m further along the street, as a stretch
+  // glued to the wrong repetition of a facade does: every pair keeps its
+  // relative rotation and (within 3 degrees) its direction.
+  Reconstruction model = reference;
+  for (ImageId id = n - k + 1; id <= n; ++id) {
+    Image& image = model.images[id];
+    image.cam_from_world.translation -=
+        image.cam_from_world.rotation * Eigen::Vector3d(20.0, 0.0, 0.0);
+  }
+  PoseEvaluationOptions options;
+  PoseEvaluation e = EvaluateModel(model, reference, options);
+  EXPECT_EQ(e.verdict_pair_fraction, 1.0);
+  ASSERT_TRUE(e.aligned);
+  EXPECT_EQ(e.num_alignment_inliers, static_cast<size_t>(n - k));
+  EXPECT_DOUBLE_EQ(e.center_fraction_within,
+                   static_cast<double>(n - k) / n);
+  EXPECT_FALSE(e.correct);
+  EXPECT_EQ(e.verdict_reason,
+            "83.3% of camera centres within 5.0% of the scene extent "
+            "(needs 95.0%)");
+  EXPECT_NE(FormatPoseEvaluation(e).find("83.3% within 5.0%"),
+            std::string::npos)
+      << FormatPoseEvaluation(e);
+  const nlohmann::json j = ToJson(e);
+  EXPECT_DOUBLE_EQ(j["camera_centers"]["fraction_within"].get<double>(),
+                   static_cast<double>(n - k) / n);
+  EXPECT_EQ(j["camera_centers"]["threshold"], 0.05);
+
+  // With the centre check off, or a threshold above the slide (20 m of a
+  // 59 m extent), the slide passes.
+  options.min_correct_center_fraction = 0.0;
+  EXPECT_TRUE(EvaluateModel(model, reference, options).correct);
+  options = PoseEvaluationOptions();
+  options.center_threshold = 0.5;
+  EXPECT_TRUE(EvaluateModel(model, reference, options).correct);
+  // Unmoved, the street is right by both checks.
+  e = EvaluateModel(reference, reference, PoseEvaluationOptions());
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+  EXPECT_EQ(e.center_fraction_within, 1.0);
+}
+
 TEST(PoseEvaluation, SmallRotationErrorsAreMeasured) {
   const Reconstruction reference = MakeCircleModel(20);
   Reconstruction model = reference;
@@ -229,6 +296,12 @@ TEST(PoseEvaluation, OptionsAreChecked) {
   EXPECT_THROW(options.Check(), Error);
   options = PoseEvaluationOptions();
   options.alignment.num_iterations = -1;
+  EXPECT_THROW(options.Check(), Error);
+  options = PoseEvaluationOptions();
+  options.center_threshold = 0.0;
+  EXPECT_THROW(options.Check(), Error);
+  options = PoseEvaluationOptions();
+  options.min_correct_center_fraction = -0.1;
   EXPECT_THROW(options.Check(), Error);
 }
 

@@ -221,6 +221,7 @@ PYBIND11_MODULE(hisfm, m) {
         "evaluate(model_path, reference_path, **options) -> dict\n\n"
         "Gauge-free pose evaluation (`hisfm evaluate --json`), with the "
         "per-image errors as arrays. Options: verdict_threshold_deg, "
-        "min_correct_pair_fraction, require_all_registered, min_model_size, "
-        "alignment_inlier_threshold.");
+        "min_correct_pair_fraction, center_threshold, "
+        "min_correct_center_fraction, require_all_registered, "
+        "min_model_size, alignment_inlier_threshold.");
 }
