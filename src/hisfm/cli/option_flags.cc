@@ -189,6 +189,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "images instead of keeping the largest");
   visit("--HiSfM.merge_min_inliers", o->merge.min_inliers,
         "Shared 3D points that must agree to merge a sub-model");
+  visit("--HiSfM.merge_min_inlier_ratio", o->merge.min_inlier_ratio,
+        "Share of the shared 3D points that must agree to merge a "
+        "sub-model");
   visit("--HiSfM.reseed_rounds", o->reseed_rounds,
         "Rounds of new models on the images left unregistered, merged "
         "into the component's model (0: off)");
@@ -198,6 +201,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "edges between them");
   visit("--HiSfM.join_min_inliers", o->join.min_inliers,
         "Matched 3D points that must agree to join a separate model");
+  visit("--HiSfM.join_min_inlier_ratio", o->join.min_inlier_ratio,
+        "Share of the matched 3D points that must agree to join a "
+        "separate model");
   visit("--colmap_path", o->colmap.colmap_path,
         "The colmap executable");
 }

@@ -289,6 +289,34 @@ TEST(ModelMerge, RefusesASharedImageWhosePosesDisagreeWithItsPoints) {
   EXPECT_EQ(model.NumRegImages(), 5u);
 }
 
+TEST(ModelMerge, NeedsMostSharedPointsToAgree) {
+  Reconstruction other = RowModel(5, 9, SomeFrame());
+  // 24 of the 60 points of `other` sit three times as deep, seen from the
+  // shared image, as they should: the similarity of the shared image's
+  // poses and the median depth ratio maps only 36 (60%) onto the model's.
+  // (crossing_streets_1000_s7, tuning: a sub-model merged through one image
+  // with 12 of 23 shared points agreeing put 38 images at five times the
+  // scale.)
+  const Eigen::Vector3d center = other.images.at(5).ProjectionCenter();
+  int k = 0;
+  for (auto& [id, p] : other.points3D) {
+    if (k++ % 5 < 2) p.xyz = center + 3.0 * (p.xyz - center);
+  }
+  ModelMergeOptions options;
+  options.min_inlier_ratio = 0.5;
+  Reconstruction model = RowModel(1, 5, Sim3d());
+  ModelMergeStep step = MergeInto(other, options, &model);
+  EXPECT_TRUE(step.merged);
+  EXPECT_EQ(step.num_correspondences, static_cast<size_t>(kNumPoints));
+  EXPECT_EQ(step.num_inliers, 36u);
+  // The default needs 70%.
+  model = RowModel(1, 5, Sim3d());
+  step = MergeInto(other, ModelMergeOptions(), &model);
+  EXPECT_FALSE(step.merged);
+  EXPECT_EQ(step.num_inliers, 36u);
+  EXPECT_EQ(model.NumRegImages(), 5u);
+}
+
 TEST(ModelMerge, RefusesModelsWithoutSharedImages) {
   Reconstruction model = RowModel(1, 4, Sim3d());
   const ModelMergeStep step = MergeInto(RowModel(5, 9, SomeFrame()), {}, &model);
