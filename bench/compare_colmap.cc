@@ -47,6 +47,7 @@ struct MethodResult {
   bool has_verdict = false;
   bool correct = false;
   bool oversplit = false;
+  bool each_model_right = false;  // split (if so) but no model folded
   double within5 = NAN;
   RetriangulationStats proxy;
   size_t verified_bridges = 0;
@@ -70,6 +71,7 @@ void Evaluate(const Scene& scene, const std::string& models_dir,
     r->has_verdict = true;
     r->correct = e.correct;
     r->oversplit = e.oversplit;
+    r->each_model_right = e.each_model_right;
     r->within5 = e.largest.verdict_pair_fraction;
   }
   r->proxy = Retriangulate(scene.database_path, scene.image_path,
@@ -116,7 +118,7 @@ std::string Verdict(const MethodResult& r) {
   if (!r.ran) return "fail";
   if (!r.has_verdict) return "?";
   if (r.correct) return "✓";
-  return r.oversplit ? "✓-" : "×";
+  return r.oversplit && r.each_model_right ? "✓-" : "×";
 }
 
 std::string Cells(const MethodResult& r) {

@@ -87,7 +87,9 @@ struct MapperResult {
   bool ran = false;  // false: the mapper failed (see its log)
   bool correct = false;
   bool oversplit = false;
+  bool each_model_right = false;  // split (if so) but no model folded
   double within5 = NAN;
+  double centers = NAN;  // the largest model's centres within 5% of extent
   size_t registered = 0;
   size_t num_models = 0;
   double seconds = 0.0;
@@ -284,7 +286,9 @@ void Evaluate(const Instance& instance, const std::string& models,
       EvaluateModels(reconstructions, reference, PoseEvaluationOptions());
   r->correct = e.correct;
   r->oversplit = e.oversplit;
+  r->each_model_right = e.each_model_right;
   r->within5 = e.largest.verdict_pair_fraction;
+  r->centers = e.largest.center_fraction_within;
   r->registered = e.largest.num_registered;
 }
 
@@ -339,14 +343,21 @@ MapperResult RunColmapMapper(const Instance& instance,
 std::string Verdict(const MapperResult& r) {
   if (!r.ran) return "fail";
   if (r.correct) return "✓";
-  return r.oversplit ? "✓-" : "×";
+  return r.oversplit && r.each_model_right ? "✓-" : "×";
 }
 
-// "pairs ≤5° | registered | verdict | time" cells.
+// "pairs ≤5° | registered | verdict | time" cells; the pairs cell adds the
+// largest model's share of centres within 5% of the extent when it is below
+// the verdict's 95%.
 std::string Cells(const MapperResult& r, int size) {
   if (!r.ran) return StrCat("- | - | fail | ", FormatFixed(r.seconds, 1), " |");
+  const PoseEvaluationOptions defaults;
+  const std::string centers =
+      std::isfinite(r.centers) && r.centers < defaults.min_correct_center_fraction
+          ? StrCat(" (centres ", FormatFixed(100.0 * r.centers, 1), "%)")
+          : std::string();
   return StrCat(std::isfinite(r.within5)
-                    ? FormatFixed(100.0 * r.within5, 1) + "%"
+                    ? FormatFixed(100.0 * r.within5, 1) + "%" + centers
                     : std::string("-"),
                 " | ", r.registered, "/", size,
                 r.num_models > 1 ? StrCat(" (", r.num_models, " models)") : "",

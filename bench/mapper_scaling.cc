@@ -11,8 +11,9 @@
 //      so that the hierarchy's own share of the speed-up is visible;
 //   3. `hisfm mapper`.
 // Each model is judged against the scene's ground truth with the project's
-// evaluator (correct: at least 95% of image pairs within 5 degrees, every
-// image registered, one model). For each colmap configuration the growth
+// evaluator (correct: at least 95% of image pairs within 5 degrees and of
+// camera centres within 5% of the scene extent, every image registered, one
+// model). For each colmap configuration the growth
 // exponent of its time is fitted (least squares on log t against log n) on
 // the sizes that finished; a size where it ran out of budget gets the
 // extrapolated time, marked "~" (the ratio then uses it and says so).

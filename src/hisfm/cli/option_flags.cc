@@ -268,7 +268,8 @@ void AddPoseEvaluationFlags(CLI::App& app, PoseEvaluationOptions* options,
   AddOptionFlag(app, flags, "--min_correct_center_fraction",
                 options->min_correct_center_fraction,
                 "Fraction of camera centres within --center_threshold "
-                "needed for 'correct' (0: no centre check)")
+                "needed for 'correct' (0: no centre check; not checked "
+                "with fewer than 3 common images)")
       ->capture_default_str();
   AddOptionFlag(app, flags, "--require_all_registered",
                 options->require_all_registered,

@@ -216,6 +216,49 @@ double DirectionErrorDeg(const Eigen::Vector3d& model,
          kRadToDeg;
 }
 
+namespace {
+
+// The reasons joined by "; ".
+std::string JoinReasons(const std::vector<std::string>& reasons) {
+  std::string joined;
+  for (size_t i = 0; i < reasons.size(); ++i) {
+    joined += (i > 0 ? "; " : "") + reasons[i];
+  }
+  return joined;
+}
+
+// Why `eval` is not correct under `options` ("" if it is).
+std::string VerdictReason(const PoseEvaluation& eval,
+                          const PoseEvaluationOptions& options) {
+  std::vector<std::string> reasons;
+  if (options.require_all_registered && !eval.missing_images.empty()) {
+    reasons.push_back(StrCat(eval.missing_images.size(), " of ",
+                             eval.num_reference_images,
+                             " reference images not registered"));
+  }
+  if (eval.num_pairs == 0) {
+    reasons.push_back("no pair of commonly registered images");
+  } else if (eval.verdict_pair_fraction < options.min_correct_pair_fraction) {
+    reasons.push_back(StrCat(Percent(eval.verdict_pair_fraction),
+                             " of pairs within ",
+                             ThresholdList({options.verdict_threshold_deg}),
+                             " deg (needs ",
+                             Percent(options.min_correct_pair_fraction), ")"));
+  }
+  if (eval.aligned &&
+      eval.center_fraction_within < options.min_correct_center_fraction) {
+    reasons.push_back(StrCat(Percent(eval.center_fraction_within),
+                             " of camera centres within ",
+                             Percent(options.center_threshold),
+                             " of the scene extent (needs ",
+                             Percent(options.min_correct_center_fraction),
+                             ")"));
+  }
+  return JoinReasons(reasons);
+}
+
+}  // namespace
+
 PoseEvaluation EvaluateModel(const Reconstruction& model,
                              const Reconstruction& reference,
                              const PoseEvaluationOptions& options) {
@@ -281,34 +324,8 @@ PoseEvaluation EvaluateModel(const Reconstruction& model,
         FractionWithin(center_errors, options.center_threshold);
   }
 
-  std::vector<std::string> reasons;
-  if (options.require_all_registered && !eval.missing_images.empty()) {
-    reasons.push_back(StrCat(eval.missing_images.size(), " of ",
-                             eval.num_reference_images,
-                             " reference images not registered"));
-  }
-  if (eval.num_pairs == 0) {
-    reasons.push_back("no pair of commonly registered images");
-  } else if (eval.verdict_pair_fraction < options.min_correct_pair_fraction) {
-    reasons.push_back(StrCat(Percent(eval.verdict_pair_fraction),
-                             " of pairs within ",
-                             ThresholdList({options.verdict_threshold_deg}),
-                             " deg (needs ",
-                             Percent(options.min_correct_pair_fraction), ")"));
-  }
-  if (eval.aligned &&
-      eval.center_fraction_within < options.min_correct_center_fraction) {
-    reasons.push_back(StrCat(Percent(eval.center_fraction_within),
-                             " of camera centres within ",
-                             Percent(options.center_threshold),
-                             " of the scene extent (needs ",
-                             Percent(options.min_correct_center_fraction),
-                             ")"));
-  }
-  eval.correct = reasons.empty();
-  for (size_t i = 0; i < reasons.size(); ++i) {
-    eval.verdict_reason += (i > 0 ? "; " : "") + reasons[i];
-  }
+  eval.verdict_reason = VerdictReason(eval, options);
+  eval.correct = eval.verdict_reason.empty();
   return eval;
 }
 
@@ -351,6 +368,18 @@ MultiModelEvaluation EvaluateModels(const std::vector<Reconstruction>& models,
   eval.num_registered_any = registered_any.size();
   eval.oversplit = eval.num_large_models > 1;
   eval.largest = eval.per_model[eval.largest_model];
+  eval.each_model_right = true;
+  for (size_t m = 0; m < models.size(); ++m) {
+    const PoseEvaluation& e = eval.per_model[m];
+    if (eval.model_sizes[m] < options.min_model_size) continue;
+    const bool pairs_right =
+        e.num_pairs > 0 &&
+        e.verdict_pair_fraction >= options.min_correct_pair_fraction;
+    const bool centers_right =
+        !e.aligned ||
+        e.center_fraction_within >= options.min_correct_center_fraction;
+    if (!pairs_right || !centers_right) eval.each_model_right = false;
+  }
   eval.correct = !eval.oversplit && eval.largest.correct;
   std::vector<std::string> reasons;
   if (eval.oversplit) {
@@ -363,9 +392,7 @@ MultiModelEvaluation EvaluateModels(const std::vector<Reconstruction>& models,
         StrCat(models.size() > 1 ? "largest model: " : "",
                eval.largest.verdict_reason));
   }
-  for (size_t i = 0; i < reasons.size(); ++i) {
-    eval.verdict_reason += (i > 0 ? "; " : "") + reasons[i];
-  }
+  eval.verdict_reason = JoinReasons(reasons);
   return eval;
 }
 
@@ -427,6 +454,7 @@ nlohmann::json ToJson(const MultiModelEvaluation& e) {
   j["model_sizes"] = e.model_sizes;
   j["num_large_models"] = e.num_large_models;
   j["oversplit"] = e.oversplit;
+  j["each_model_right"] = e.each_model_right;
   j["largest_model"] = e.largest_model;
   j["num_registered_any"] = e.num_registered_any;
   j["num_pairs_within_models"] = e.num_pairs_within_models;

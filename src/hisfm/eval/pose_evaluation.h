@@ -6,8 +6,11 @@
 // judgement measurable: relative-pose errors between all pairs of commonly
 // registered images are invariant to the similarity gauge of either model,
 // and a folded or duplicated structure shows up as a large fraction of pairs
-// with errors far above the noise. Camera-centre errors are reported after a
-// robust similarity alignment (similarity_alignment.h).
+// with errors far above the noise. Camera-centre errors are measured after a
+// robust similarity alignment (similarity_alignment.h) and are part of the
+// verdict: along a straight street, a stretch of collinear cameras that
+// slides, shrinks or stretches along its line keeps every relative direction,
+// and only the centres show it.
 //
 // For images i, j with cam_from_world rotations R_i, R_j and centres C_i,
 // C_j:
@@ -44,8 +47,9 @@ struct PoseEvaluationOptions {
   /// shrinks or flips along a straight street; the centres do.
   double center_threshold = 0.05;
   /// The verdict needs at least this fraction of the commonly registered
-  /// images with their centres within center_threshold (checked when the
-  /// centres could be aligned; 0 turns the check off).
+  /// images with their centres within center_threshold (0 turns the check
+  /// off). Not checked when the centres cannot be aligned: fewer than three
+  /// common images, or reference centres without extent.
   double min_correct_center_fraction = 0.95;
   /// EvaluateModels: models with at least this many reference images count
   /// towards over-splitting. (The paper ignores extra models under 16 images
@@ -138,6 +142,12 @@ struct MultiModelEvaluation {
   std::vector<double> pair_fractions_within_models;
   /// Reference images registered in at least one model.
   size_t num_registered_any = 0;
+  /// Every model with at least options.min_model_size reference images is
+  /// right within itself: enough of its pairs within the verdict threshold
+  /// and, if aligned, of its centres within the centre threshold (the
+  /// images it lacks aside). An oversplit result with this true is split
+  /// but not folded.
+  bool each_model_right = false;
   /// Not oversplit and the largest model is correct.
   bool correct = false;
   std::string verdict_reason;

@@ -266,6 +266,8 @@ TEST(PoseEvaluation, TooFewImages) {
   const nlohmann::json j = ToJson(e);
   EXPECT_TRUE(j["median_rotation_error_deg"].is_null());
   EXPECT_TRUE(j["camera_centers"]["median_error"].is_null());
+  EXPECT_TRUE(j["camera_centers"]["fraction_within"].is_null());
+  EXPECT_TRUE(std::isnan(e.center_fraction_within));
   EXPECT_EQ(j["verdict"], "incorrect");
   // Valid JSON text that reads back the same (a NaN would come back null).
   EXPECT_EQ(nlohmann::json::parse(j.dump()), j);
@@ -344,6 +346,7 @@ TEST(MultiModelEvaluation, SplitSceneIsOversplit) {
   ASSERT_EQ(e.per_model.size(), 3u);
   EXPECT_EQ(e.per_model[0].num_registered, 12u);
   EXPECT_FALSE(e.correct);
+  EXPECT_TRUE(e.each_model_right);
   EXPECT_NE(e.verdict_reason.find("split into 2 models"), std::string::npos)
       << e.verdict_reason;
   const std::string text = FormatMultiModelEvaluation(e);
@@ -351,8 +354,22 @@ TEST(MultiModelEvaluation, SplitSceneIsOversplit) {
   EXPECT_NE(text.find("verdict: incorrect"), std::string::npos) << text;
   const nlohmann::json j = ToJson(e);
   EXPECT_EQ(j["oversplit"], true);
+  EXPECT_EQ(j["each_model_right"], true);
   EXPECT_EQ(j["num_models"], 3);
   EXPECT_EQ(j["largest"]["num_registered"], 26);
+
+  // A fold of 10 cameras inside the larger part: split and folded.
+  std::vector<Reconstruction> parts = Split(reference, {1, 13, 39});
+  Sim3d fold;
+  fold.rotation = Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ());
+  for (ImageId id = 14; id < 24; ++id) {
+    Rigid3d& pose = parts[1].images.at(id).cam_from_world;
+    pose = fold.TransformPose(pose);
+  }
+  const MultiModelEvaluation folded =
+      EvaluateModels(parts, reference, PoseEvaluationOptions());
+  EXPECT_TRUE(folded.oversplit);
+  EXPECT_FALSE(folded.each_model_right);
 }
 
 TEST(MultiModelEvaluation, SmallExtraModelIsNotOversplit) {

@@ -40,6 +40,16 @@ MapperPaths CupPaths(const TempDir& tmp) {
   return p;
 }
 
+TEST(HierarchicalMapperOptions, MergeAndJoinNeedTheirOwnAgreementShares) {
+  // The merge through shared images needs 70% of the shared points to
+  // agree (measured, model_merge.h); the join through matches keeps 0.5.
+  const HierarchicalMapperOptions options;
+  EXPECT_EQ(options.merge.min_inlier_ratio, 0.7);
+  EXPECT_EQ(options.join.min_inlier_ratio, 0.5);
+  EXPECT_EQ(options.join.min_inliers, ModelMergeOptions().min_inliers);
+  options.Check();
+}
+
 TEST(HierarchicalMapper, BadInputGivesOneLineErrorsAndWritesNothing) {
   TempDir tmp;
   HierarchicalMapperOptions options;
@@ -131,7 +141,8 @@ TEST(HierarchicalMapper, RegistersAllCupImages) {
 
 // The pipeline with the default (builtin) verifier on a shared scene where
 // vanilla COLMAP folds: every image registered, at least 95% of the pairs
-// within 5 degrees of the reference.
+// within 5 degrees of the reference and of the camera centres within 5% of
+// the scene extent.
 void ExpectCorrect(const std::string& scene, size_t num_images,
                    const std::string& reference_dir = "reference") {
   const std::string db = SharedDataPath(scene, "database.db");
