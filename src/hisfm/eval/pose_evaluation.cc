@@ -227,6 +227,21 @@ std::string JoinReasons(const std::vector<std::string>& reasons) {
   return joined;
 }
 
+// Enough of `eval`'s pairs within the verdict threshold.
+bool PairsRight(const PoseEvaluation& eval,
+                const PoseEvaluationOptions& options) {
+  return eval.num_pairs > 0 &&
+         eval.verdict_pair_fraction >= options.min_correct_pair_fraction;
+}
+
+// Enough of `eval`'s centres within the centre threshold (true if the
+// centres could not be aligned).
+bool CentersRight(const PoseEvaluation& eval,
+                  const PoseEvaluationOptions& options) {
+  return !eval.aligned ||
+         eval.center_fraction_within >= options.min_correct_center_fraction;
+}
+
 // Why `eval` is not correct under `options` ("" if it is).
 std::string VerdictReason(const PoseEvaluation& eval,
                           const PoseEvaluationOptions& options) {
@@ -238,15 +253,14 @@ std::string VerdictReason(const PoseEvaluation& eval,
   }
   if (eval.num_pairs == 0) {
     reasons.push_back("no pair of commonly registered images");
-  } else if (eval.verdict_pair_fraction < options.min_correct_pair_fraction) {
+  } else if (!PairsRight(eval, options)) {
     reasons.push_back(StrCat(Percent(eval.verdict_pair_fraction),
                              " of pairs within ",
                              ThresholdList({options.verdict_threshold_deg}),
                              " deg (needs ",
                              Percent(options.min_correct_pair_fraction), ")"));
   }
-  if (eval.aligned &&
-      eval.center_fraction_within < options.min_correct_center_fraction) {
+  if (!CentersRight(eval, options)) {
     reasons.push_back(StrCat(Percent(eval.center_fraction_within),
                              " of camera centres within ",
                              Percent(options.center_threshold),
@@ -370,15 +384,11 @@ MultiModelEvaluation EvaluateModels(const std::vector<Reconstruction>& models,
   eval.largest = eval.per_model[eval.largest_model];
   eval.each_model_right = true;
   for (size_t m = 0; m < models.size(); ++m) {
-    const PoseEvaluation& e = eval.per_model[m];
     if (eval.model_sizes[m] < options.min_model_size) continue;
-    const bool pairs_right =
-        e.num_pairs > 0 &&
-        e.verdict_pair_fraction >= options.min_correct_pair_fraction;
-    const bool centers_right =
-        !e.aligned ||
-        e.center_fraction_within >= options.min_correct_center_fraction;
-    if (!pairs_right || !centers_right) eval.each_model_right = false;
+    if (!PairsRight(eval.per_model[m], options) ||
+        !CentersRight(eval.per_model[m], options)) {
+      eval.each_model_right = false;
+    }
   }
   eval.correct = !eval.oversplit && eval.largest.correct;
   std::vector<std::string> reasons;
