@@ -58,6 +58,12 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "A bridge closing a cycle with the skeleton is taken only if the "
         "cycle's rotations compose within this (degrees; 0: off; verifiers "
         "that report no rotations, e.g. scores: and command:, skip it)");
+  visit("--HiSfM.near_miss_vote", h.skeleton.near_miss_vote,
+        "Refuse a bridge joining two parts when the bridges rejected "
+        "between them with scores in [fallback_threshold, "
+        "verify_threshold) that turn its cycle beyond "
+        "max_cycle_rotation_deg outweigh it and those that agree with it "
+        "(no effect when the two thresholds are equal, as by default)");
   visit("--HiSfM.rank_tiers", h.skeleton.rank_tiers,
         "Trees take bridges by neighbour rank tiers 1..N before weight "
         "(0: by weight, as Algorithm 1)");

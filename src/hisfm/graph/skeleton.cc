@@ -464,6 +464,7 @@ class SkeletonBuilder {
     rejected_seen_.assign(bridges_.size(), 0);
     in_skeleton_.assign(bridges_.size(), 0);
     cycle_error_.assign(bridges_.size(), -1.0);
+    outvoted_.assign(bridges_.size(), 0);
     cache_ = std::make_unique<ScoreCache>(bridges_, scorer, &skeleton_);
   }
 
@@ -507,15 +508,29 @@ class SkeletonBuilder {
     held_[p.image_id1].push_back(p.image_id2);
     held_[p.image_id2].push_back(p.image_id1);
   }
+  // Breadth-first parents over the edges held, from `root` (which maps to
+  // itself), over its whole part or until `stop` is reached; empty if
+  // `root` has no edge held.
+  std::unordered_map<ImageId, ImageId> HeldParents(
+      ImageId root, ImageId stop = kInvalidImageId) const;
   // The images of a shortest path from `a` to `b` over the edges held;
   // empty if there is none.
   std::vector<ImageId> HeldPath(ImageId a, ImageId b) const;
+  // Whether the near misses between the two parts bridge k joins outvote
+  // it (SkeletonOptions::near_miss_vote); `worst` gets the largest
+  // rotation error of a cycle it closes with one of them (-1: none).
+  bool Outvoted(size_t k, double* worst);
   // Whether bridge k may be taken: its score reaches
   // SkeletonOptions::ThresholdFor(role, tree_) and the cycle it closes with
   // the skeleton, if any, is rotation consistent. Records a rejection with
   // `role`. A redundant bridge that would need a new score once the
   // redundancy budget is spent is refused without being scored or recorded.
   bool Admit(size_t k, BridgeRole role);
+  // Whether SkeletonOptions::near_miss_vote applies.
+  bool NearMissVoteOn() const {
+    return options_.near_miss_vote && options_.max_cycle_rotation_deg > 0 &&
+           scorer_ != nullptr;
+  }
   // New verifications the redundant bridges may still ask for.
   size_t RedundantBudgetLeft() const {
     if (redundant_budget_ == SIZE_MAX) return SIZE_MAX;
@@ -541,6 +556,12 @@ class SkeletonBuilder {
   UnionFind held_communities_;
   // Rotation error of the cycle each bridge closed when admitted (-1: none).
   std::vector<double> cycle_error_;
+  // Bridges rejected for their score alone, scoring in
+  // [fallback_threshold, verify_threshold) (SkeletonOptions::
+  // near_miss_vote), in the order they were met.
+  std::vector<size_t> near_misses_;
+  // Bridges their near misses outvoted (not taken by the fallback either).
+  std::vector<char> outvoted_;
   // The tree PackTrees is packing (0-based).
   int tree_ = 0;
   // Pairs verified when the first tree was done, and how many more the
@@ -550,23 +571,107 @@ class SkeletonBuilder {
   size_t redundant_budget_ = SIZE_MAX;
 };
 
-std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
-  if (!held_.count(a) || !held_.count(b)) return {};
-  std::unordered_map<ImageId, ImageId> parent{{a, a}};
+std::unordered_map<ImageId, ImageId> SkeletonBuilder::HeldParents(
+    ImageId root, ImageId stop) const {
+  if (!held_.count(root)) return {};
+  std::unordered_map<ImageId, ImageId> parent{{root, root}};
   std::queue<ImageId> queue;
-  queue.push(a);
-  while (!queue.empty() && !parent.count(b)) {
+  queue.push(root);
+  while (!queue.empty() && !parent.count(stop)) {
     const ImageId v = queue.front();
     queue.pop();
     for (const ImageId w : held_.at(v)) {
       if (parent.emplace(w, v).second) queue.push(w);
     }
   }
-  if (!parent.count(b)) return {};
-  std::vector<ImageId> path{b};
-  while (path.back() != a) path.push_back(parent.at(path.back()));
+  return parent;
+}
+
+// The path from `root` to `target` along breadth-first `parent`s from
+// `root`, as images from `root` on; empty if `target` was not reached.
+std::vector<ImageId> PathFromRoot(
+    const std::unordered_map<ImageId, ImageId>& parent, ImageId root,
+    ImageId target) {
+  if (!parent.count(target)) return {};
+  std::vector<ImageId> path{target};
+  while (path.back() != root) path.push_back(parent.at(path.back()));
   std::reverse(path.begin(), path.end());
   return path;
+}
+
+std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
+  if (!held_.count(b)) return {};
+  return PathFromRoot(HeldParents(a, b), a, b);
+}
+
+bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
+  *worst = -1.0;
+  const Bridge& b = bridges_[k];
+  // Near misses whose parts have joined can never vote again.
+  near_misses_.erase(
+      std::remove_if(near_misses_.begin(), near_misses_.end(),
+                     [&](size_t j) {
+                       return held_communities_.Connected(bridges_[j].c1,
+                                                          bridges_[j].c2);
+                     }),
+      near_misses_.end());
+  // Those between the same two parts, as (near miss, its image on
+  // image_id1's side, its image on image_id2's side); heaviest first.
+  struct Oriented {
+    size_t j;
+    ImageId x;
+    ImageId y;
+  };
+  std::vector<Oriented> between;
+  uint64_t undecided = 0;
+  for (const size_t j : near_misses_) {
+    const Bridge& n = bridges_[j];
+    if (j == k || in_skeleton_[j]) continue;
+    if (held_communities_.Connected(n.c1, b.c1) &&
+        held_communities_.Connected(n.c2, b.c2)) {
+      between.push_back({j, n.pair.image_id1, n.pair.image_id2});
+    } else if (held_communities_.Connected(n.c2, b.c1) &&
+               held_communities_.Connected(n.c1, b.c2)) {
+      between.push_back({j, n.pair.image_id2, n.pair.image_id1});
+    } else {
+      continue;
+    }
+    undecided += n.weight;
+  }
+  if (between.empty()) return false;
+  std::stable_sort(between.begin(), between.end(),
+                   [&](const Oriented& u, const Oriented& v) {
+                     return bridges_[u.j].weight > bridges_[v.j].weight;
+                   });
+  const std::unordered_map<ImageId, ImageId> from1 =
+      HeldParents(b.pair.image_id1);
+  const std::unordered_map<ImageId, ImageId> from2 =
+      HeldParents(b.pair.image_id2);
+  uint64_t support = b.weight;
+  uint64_t against = 0;
+  for (const Oriented& o : between) {
+    // Stop once the near misses left cannot change the outcome.
+    if (against > support + undecided || support >= against + undecided) {
+      break;
+    }
+    const uint32_t weight = bridges_[o.j].weight;
+    undecided -= weight;
+    // The cycle image_id1 .. x, y .. image_id2, closed by the bridge.
+    std::vector<ImageId> cycle = PathFromRoot(from1, b.pair.image_id1, o.x);
+    const std::vector<ImageId> back =
+        PathFromRoot(from2, b.pair.image_id2, o.y);
+    if (cycle.empty() || back.empty()) continue;
+    cycle.insert(cycle.end(), back.rbegin(), back.rend());
+    const double error = scorer_->CycleRotationErrorDeg(cycle);
+    if (error < 0) continue;
+    if (error > options_.max_cycle_rotation_deg) {
+      against += weight;
+      *worst = std::max(*worst, error);
+    } else {
+      support += weight;
+    }
+  }
+  return against > support;
 }
 
 bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
@@ -601,7 +706,22 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   }
   const double score = cache_->Get(k);
   if (score < options_.ThresholdFor(role, tree_)) {
+    if (score >= options_.fallback_threshold &&
+        score < options_.verify_threshold && cycle_error_[k] < 0) {
+      near_misses_.push_back(k);
+    }
     Reject(k, score, role, cycle_error_[k]);
+    return false;
+  }
+  // A bridge between parts held apart: its near misses may outvote it.
+  double worst = -1.0;
+  if (NearMissVoteOn() &&
+      !held_communities_.Connected(bridges_[k].c1, bridges_[k].c2) &&
+      Outvoted(k, &worst)) {
+    outvoted_[k] = 1;
+    ++skeleton_.num_outvoted;
+    Reject(k, score, role, worst);
+    skeleton_.rejected.back().outvoted = true;
     return false;
   }
   return true;
@@ -771,12 +891,27 @@ void SkeletonBuilder::AddFallbackBridges() {
   std::stable_sort(scored.begin(), scored.end(), [&](size_t a, size_t b) {
     return cache_->Get(a) > cache_->Get(b);
   });
+  auto take = [&](size_t k) {
+    uf.Union(bridges_[k].c1, bridges_[k].c2);
+    used_[bridges_[k].kappa] = 1;
+    Take(k, cache_->Get(k), BridgeRole::kFallback, -1);
+  };
   for (const size_t k : scored) {
     const Bridge& b = bridges_[k];
-    if (uf.Connected(b.c1, b.c2)) continue;
-    uf.Union(b.c1, b.c2);
-    used_[b.kappa] = 1;
-    Take(k, cache_->Get(k), BridgeRole::kFallback, -1);
+    if (uf.Connected(b.c1, b.c2) || outvoted_[k]) continue;
+    double worst = -1.0;
+    if (NearMissVoteOn() && Outvoted(k, &worst)) {
+      outvoted_[k] = 1;
+      ++skeleton_.num_outvoted;
+      continue;
+    }
+    take(k);
+  }
+  // Where the vote refused every candidate between two parts (the near
+  // misses disagree among themselves), the best-scoring one still joins
+  // them: one model rather than pieces.
+  for (const size_t k : scored) {
+    if (!uf.Connected(bridges_[k].c1, bridges_[k].c2)) take(k);
   }
 }
 

@@ -36,6 +36,12 @@
 // weighed by the share of each pair's inliers that agree with the pose the
 // scorer accepts for it (SkeletonOptions::intra_consistent_weights).
 //
+// A fifth deviation: a bridge that joins two parts held apart is refused
+// when the bridges rejected between those parts with a score in
+// [fallback_threshold, tau) (near misses) outweigh it and disagree with it
+// in rotation around the cycles it closes with them
+// (SkeletonOptions::near_miss_vote; no pair is scored for it).
+//
 // Kruskal is kept exact within that order (a deferral rule that was tried
 // verified more bridges, not fewer: docs/decisions.md).
 #pragma once
@@ -125,6 +131,25 @@ struct SkeletonOptions {
   /// rotations (BridgeScorer::CycleRotationErrorDeg); 0 turns the check
   /// off.
   double max_cycle_rotation_deg = 45.0;
+  /// A bridge that closes no cycle with the skeleton (it joins two parts
+  /// the skeleton holds apart, as every bridge of the first tree and of the
+  /// fallback does) is also checked against the near misses met before it
+  /// between the same two parts: bridges already scored and rejected with a
+  /// score in [fallback_threshold, verify_threshold). Each near miss closes
+  /// a cycle with the bridge; if the near misses whose cycle turns by more
+  /// than max_cycle_rotation_deg outweigh (by view-graph weight, the
+  /// trees' order) the bridge and the near misses whose cycle closes, the
+  /// bridge is refused. The fallback
+  /// votes the same way among its candidates, but where the vote refuses
+  /// every candidate between two parts it still takes the best-scoring one
+  /// (one model rather than pieces). No pair is scored for the vote. An
+  /// addition to Algorithm 1 that acts only for tau above
+  /// fallback_threshold (at the defaults, 0.5 and 0.5, there are no near
+  /// misses and nothing changes): a score can rank a few weak doppelgangers
+  /// above strong true bridges, which tau then rejects, and the first tree
+  /// would join the parts through a doppelganger alone. Needs a scorer that
+  /// reports rotations, and max_cycle_rotation_deg > 0.
+  bool near_miss_vote = true;
   /// Trees meet bridges by neighbour rank before weight: a bridge's rank is
   /// the larger, over its two images, of its place among that image's
   /// verified pairs by weight (1 = the strongest). Bridges of rank r <=
@@ -190,6 +215,10 @@ struct BridgeRecord {
   /// skeleton when it was considered; negative if it closed none or the
   /// scorer could not tell.
   double cycle_error_deg = -1.0;
+  /// Refused by the near misses between the parts it joins
+  /// (SkeletonOptions::near_miss_vote) though its score passed; its
+  /// cycle_error_deg is then the largest of the cycles it closed with them.
+  bool outvoted = false;
 };
 
 /// The skeletal subgraph G_s = (V_s, E_s).
@@ -207,6 +236,10 @@ struct Skeleton {
   size_t num_candidate_bridges = 0;
   /// Candidate bridges left out by SkeletonOptions::max_bridge_rank.
   size_t num_rank_excluded = 0;
+  /// Bridges the near-miss vote refused (SkeletonOptions::near_miss_vote),
+  /// in the trees (in `rejected`, marked `outvoted`) or in the fallback
+  /// (near misses themselves, in `rejected` for their score).
+  size_t num_outvoted = 0;
   /// Number of pairs scored by the verifier (each at most once).
   size_t num_verified = 0;
   /// Number of calls into the scorer (batches).

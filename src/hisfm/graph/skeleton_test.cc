@@ -885,27 +885,52 @@ namespace {
 
 // Accepts every bridge (score 0.9); a cycle turns by 180 degrees per
 // "folded" pair on it (a doppelganger of a two-fold symmetric object), and
-// every cycle asked about is recorded.
+// by `turn` degrees per pair in it walked from the lower id to the higher
+// (minus that the other way); every cycle asked about is recorded, and each
+// of its steps must be an edge of `graph` when given.
 class CycleScorer : public BridgeScorer {
  public:
   std::set<ImagePair> folded;
+  std::map<ImagePair, double> turn;
+  const ViewGraph* graph = nullptr;
   std::vector<std::vector<ImageId>> cycles;
-  // Pairs scored 0.1 (below tau); every other pair 0.9.
+  // Pairs scored 0.1 (below tau) and 0.6 (near misses at tau = 0.8);
+  // every other pair 0.9.
   std::set<ImagePair> weak;
+  std::set<ImagePair> middling;
+  // Scores that override both sets.
+  std::map<ImagePair, double> exact;
+  // Whether the scorer reports rotations at all.
+  bool knows_rotations = true;
   std::string Name() const override { return "cycle"; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
     std::vector<double> s;
-    for (const ImagePair& p : pairs) s.push_back(weak.count(p) ? 0.1 : 0.9);
+    for (const ImagePair& p : pairs) {
+      const auto it = exact.find(p);
+      s.push_back(it != exact.end() ? it->second
+                  : weak.count(p)   ? 0.1
+                  : middling.count(p) ? 0.6
+                                      : 0.9);
+    }
     return s;
   }
   double CycleRotationErrorDeg(const std::vector<ImageId>& cycle) override {
+    if (!knows_rotations) return -1.0;
     cycles.push_back(cycle);
-    int turns = 0;
+    double total = 0.0;
     for (size_t k = 0; k < cycle.size(); ++k) {
-      turns += folded.count(
-          ImagePair(cycle[k], cycle[(k + 1) % cycle.size()]));
+      const ImageId u = cycle[k];
+      const ImageId v = cycle[(k + 1) % cycle.size()];
+      const ImagePair p(u, v);
+      if (graph != nullptr) {
+        EXPECT_GT(graph->Weight(u, v), 0u) << u << "-" << v << " not an edge";
+      }
+      total += folded.count(p) ? 180.0 : 0.0;
+      const auto it = turn.find(p);
+      if (it != turn.end()) total += u < v ? it->second : -it->second;
     }
-    return turns % 2 ? 180.0 : 0.0;
+    const double error = std::fmod(std::abs(total), 360.0);
+    return error > 180.0 ? 360.0 - error : error;
   }
 };
 
@@ -1013,6 +1038,204 @@ TEST(SkeletonCycles, ARejectionForTheScoreKeepsTheCycleChecked) {
     }
   }
   EXPECT_GT(num_checked, 0u) << "second-tree rejections carry their cycle";
+}
+
+// Two communities, the chains 1-2-3 and 4-5-6, and three bridges: 3-4 (300
+// inliers) and 1-6 (280), both true, and 2-5 (100), a doppelganger that
+// turns every loop it is on by 180 degrees. 2-5 meets the trees last (rank
+// 3 against 2).
+ViewGraph NearMissGraph() {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+       {ImagePair(3, 4), 300}, {ImagePair(1, 6), 280},
+       {ImagePair(2, 5), 100}});
+}
+
+// tau = 0.8; the true bridges score 0.6 (near misses), the doppelganger 0.9.
+CycleScorer NearMissScorer() {
+  CycleScorer scorer;
+  scorer.middling = {ImagePair(3, 4), ImagePair(1, 6)};
+  scorer.folded = {ImagePair(2, 5)};
+  return scorer;
+}
+
+// The paper's tau = 0.8, above the default fallback threshold (0.5): the
+// bridges scoring 0.5 to 0.8 are near misses.
+SkeletonOptions PaperTau() {
+  SkeletonOptions options;
+  options.verify_threshold = 0.8;
+  return options;
+}
+
+std::set<ImagePair> TakenPairs(const Skeleton& s) {
+  std::set<ImagePair> pairs;
+  for (const BridgeRecord& b : s.bridges) pairs.insert(b.pair);
+  return pairs;
+}
+
+TEST(SkeletonNearMisses, HeavierNearMissesOutvoteADoppelgangerAboveTau) {
+  const ViewGraph g = NearMissGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  SkeletonOptions options = PaperTau();
+  CycleScorer scorer = NearMissScorer();
+  scorer.graph = &g;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  // Only Kruskal's three bridges were scored; the vote scored none.
+  EXPECT_EQ(s.num_verified, 3u);
+  // The tree refused 2-5; the fallback joined the two communities through
+  // the best-scoring near miss the others do not outvote: the heavier one.
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(3, 4));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kFallback);
+  EXPECT_EQ(s.num_outvoted, 1u);
+  bool refused = false;
+  for (const BridgeRecord& b : s.rejected) {
+    if (b.pair != ImagePair(2, 5)) continue;
+    refused = true;
+    EXPECT_DOUBLE_EQ(b.score, 0.9);
+    EXPECT_EQ(b.cycle_error_deg, 180.0);
+    EXPECT_TRUE(b.outvoted);
+  }
+  EXPECT_TRUE(refused);
+  EXPECT_FALSE(scorer.cycles.empty());
+
+  // Off, or with a scorer that reports no rotations, the tree takes 2-5.
+  options.near_miss_vote = false;
+  CycleScorer off = NearMissScorer();
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &off, options)),
+            std::set<ImagePair>{ImagePair(2, 5)});
+  options.near_miss_vote = true;
+  CycleScorer blind = NearMissScorer();
+  blind.knows_rotations = false;
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &blind, options)),
+            std::set<ImagePair>{ImagePair(2, 5)});
+}
+
+TEST(SkeletonNearMisses, TheFallbackSkipsAnOutvotedNearMiss) {
+  // Every bridge fails tau = 0.8: the doppelganger 1-6 (280) scores best
+  // of the near misses, but the heavier 3-4 (300) disagrees with it.
+  const ViewGraph g = NearMissGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options = PaperTau();
+  CycleScorer scorer;
+  scorer.exact = {{ImagePair(3, 4), 0.6}, {ImagePair(1, 6), 0.7}};
+  scorer.weak = {ImagePair(2, 5)};
+  scorer.folded = {ImagePair(1, 6)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(3, 4));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kFallback);
+  EXPECT_EQ(s.num_outvoted, 1u);
+  options.near_miss_vote = false;
+  CycleScorer off = scorer;
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &off, options)),
+            std::set<ImagePair>{ImagePair(1, 6)});
+}
+
+TEST(SkeletonNearMisses, ALighterDisagreementDoesNotOutvote) {
+  const ViewGraph g = NearMissGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options = PaperTau();
+  // Only 1-6 (280) is a near miss; 3-4 (300) passes tau and is taken before
+  // it is met, so 2-5 and 1-6 are never asked about.
+  CycleScorer scorer = NearMissScorer();
+  scorer.middling = {ImagePair(1, 6)};
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &scorer, options)),
+            std::set<ImagePair>{ImagePair(3, 4)});
+  // One near miss (1-6, 280) against a doppelganger made heavier than it
+  // (2-5 at 0.9 with 3-4 scoring low): 280 < 290, the doppelganger stays.
+  const ViewGraph heavy = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+       {ImagePair(3, 4), 300}, {ImagePair(1, 6), 280},
+       {ImagePair(2, 5), 290}});
+  const Communities heavy_c = ComputeCommunities(heavy, CommunityOptions());
+  CycleScorer one = NearMissScorer();
+  one.middling = {ImagePair(1, 6)};
+  one.weak = {ImagePair(3, 4)};
+  EXPECT_EQ(TakenPairs(BuildSkeleton(heavy, heavy_c, &one, options)),
+            std::set<ImagePair>{ImagePair(2, 5)});
+  EXPECT_TRUE(one.cycles.empty())
+      << "a lighter near miss cannot decide the vote: no cycle is asked";
+}
+
+TEST(SkeletonNearMisses, NearMissesThatAgreeSupportTheBridge) {
+  // 1-6 (280) is a doppelganger like 2-5: their cycle turns twice, by 360
+  // degrees, and closes. 280 + 100 outweigh 3-4's 300: 2-5 stays.
+  const ViewGraph g = NearMissGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options = PaperTau();
+  CycleScorer scorer = NearMissScorer();
+  scorer.folded.insert(ImagePair(1, 6));
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(2, 5)});
+  EXPECT_EQ(s.num_outvoted, 0u);
+  EXPECT_EQ(scorer.cycles.size(), 2u);
+}
+
+TEST(SkeletonNearMisses, NearMissesOrientedAgainstTheBridgeVoteToo) {
+  // Communities {1, 4, 5} and {2, 3, 6}: the near miss 3-4 (300) runs from
+  // the second to the first, the doppelganger 1-6 (100, scoring 0.9) from
+  // the first to the second. By weight order 3-4 is met first.
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 4), 1000}, {ImagePair(4, 5), 1010},
+       {ImagePair(2, 3), 1020}, {ImagePair(3, 6), 1030},
+       {ImagePair(3, 4), 300}, {ImagePair(1, 6), 100}});
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  ASSERT_EQ(c.Of(1), c.Of(4));
+  SkeletonOptions options = PaperTau();
+  options.rank_tiers = 0;
+  CycleScorer scorer;
+  scorer.graph = &g;
+  scorer.middling = {ImagePair(3, 4)};
+  scorer.folded = {ImagePair(1, 6)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(3, 4)});
+  EXPECT_EQ(s.num_outvoted, 1u);
+  ASSERT_EQ(scorer.cycles.size(), 1u);
+  EXPECT_EQ(scorer.cycles[0], (std::vector<ImageId>{1, 4, 3, 6}));
+}
+
+TEST(SkeletonNearMisses, TheFallbackJoinsPartsWhoseCandidatesAllLose) {
+  // A four-fold object: the true 3-4 (100), and doppelgangers 1-6 (60,
+  // turning 90 degrees) and 2-5 (60, 180); all near misses. Each loses its
+  // vote to the other two, and the fallback still joins the two parts
+  // through the best-scoring one (ties: the heaviest).
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+       {ImagePair(3, 4), 100}, {ImagePair(1, 6), 60},
+       {ImagePair(2, 5), 60}});
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  SkeletonOptions options = PaperTau();
+  CycleScorer scorer;
+  scorer.graph = &g;
+  scorer.middling = {ImagePair(3, 4), ImagePair(1, 6), ImagePair(2, 5)};
+  scorer.turn = {{ImagePair(1, 6), 90.0}};
+  scorer.folded = {ImagePair(2, 5)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, options);
+  EXPECT_EQ(s.num_outvoted, 3u);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(3, 4));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kFallback);
+}
+
+TEST(SkeletonNearMisses, NoNearMissesAtTheDefaultThresholds) {
+  // tau = fallback_threshold = 0.5: a bridge scoring 0.6 passes, so there
+  // is nothing to vote; the tree takes the heaviest true bridge.
+  const ViewGraph g = NearMissGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  CycleScorer scorer = NearMissScorer();
+  const Skeleton s = BuildSkeleton(g, c, &scorer, SkeletonOptions());
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(3, 4)});
+  EXPECT_TRUE(scorer.cycles.empty());
 }
 
 // Scores every bridge 0.9 and reports the consistent share of each pair from

@@ -274,10 +274,11 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   const Hierarchy& h = in.hierarchy;
   HISFM_LOG_INFO(
       "{} communities, {} candidate bridges, K = {}, {} bridges taken, {} "
-      "rejected, {} verified by '{}'",
+      "rejected, {} refused by the near-miss vote, {} verified by '{}'",
       h.communities.NumCommunities(), h.skeleton.num_candidate_bridges,
       h.skeleton.num_trees, h.skeleton.bridges.size(),
-      h.skeleton.rejected.size(), h.skeleton.num_verified, in.verifier_name);
+      h.skeleton.rejected.size(), h.skeleton.num_outvoted,
+      h.skeleton.num_verified, in.verifier_name);
   HISFM_LOG_INFO(
       "skeleton: {} images, {} edges; hierarchy: {} edges; {} component(s); "
       "{} isolated image(s) ({:.2f} s)",
@@ -446,6 +447,7 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"num_trees", h.skeleton.num_trees},
           {"skeleton_bridges", h.skeleton.bridges.size()},
           {"rejected_bridges", h.skeleton.rejected.size()},
+          {"outvoted_bridges", h.skeleton.num_outvoted},
           {"skeleton_images", h.skeleton.images.size()},
           {"skeleton_edges", h.skeleton.Edges().size()},
           {"leaf_edges", h.leaf_edges.size()},

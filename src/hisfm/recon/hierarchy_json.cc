@@ -28,6 +28,7 @@ nlohmann::json BridgeToJson(const BridgeRecord& b) {
       {"score", b.score >= 0 ? nlohmann::json(b.score) : nlohmann::json()},
       {"role", RoleName(b.role)},     {"tree", b.tree}};
   if (b.cycle_error_deg >= 0) j["cycle_error_deg"] = b.cycle_error_deg;
+  if (b.outvoted) j["outvoted"] = true;
   if (b.rank > 0) j["rank"] = b.rank;
   return j;
 }
@@ -78,6 +79,7 @@ nlohmann::json HierarchyToJson(
           {"num_trees", h.skeleton.num_trees},
           {"num_candidate_bridges", h.skeleton.num_candidate_bridges},
           {"num_rank_excluded_bridges", h.skeleton.num_rank_excluded},
+          {"num_outvoted_bridges", h.skeleton.num_outvoted},
           {"num_verified_bridges", h.skeleton.num_verified},
           {"images", images},
           {"skeleton_bridges", bridges},
