@@ -39,6 +39,10 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.redundant_budget_trees", h.skeleton.redundant_budget_trees,
         "After the first tree, verify at most this many times "
         "max(1, K - 1) trees' worth of redundant bridges");
+  visit("--HiSfM.first_tree_budget_trees",
+        h.skeleton.first_tree_budget_trees,
+        "The first tree verifies at most this many trees' worth of bridges "
+        "at tau, then goes on at the fallback threshold; 0 = no budget");
   visit("--HiSfM.num_top_bridges", h.skeleton.num_top_bridges,
         "Extra verified top-weight bridges after the trees");
   visit("--HiSfM.num_backup_bridges", h.skeleton.num_backup_bridges,

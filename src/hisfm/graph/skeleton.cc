@@ -34,6 +34,10 @@ void SkeletonOptions::Check() const {
                      redundant_budget_trees >= 0 &&
                          std::isfinite(redundant_budget_trees),
                      ">= 0 and finite");
+  HISFM_CHECK_OPTION(first_tree_budget_trees,
+                     first_tree_budget_trees >= 0 &&
+                         std::isfinite(first_tree_budget_trees),
+                     ">= 0 and finite");
   HISFM_CHECK_OPTION(fallback_threshold,
                      fallback_threshold >= 0.0 && fallback_threshold <= 1.0,
                      "in [0.0, 1.0]");
@@ -47,6 +51,7 @@ void SkeletonOptions::Check() const {
 
 double SkeletonOptions::ThresholdFor(BridgeRole role, int tree) const {
   if (role == BridgeRole::kTree && tree == 0) return verify_threshold;
+  if (role == BridgeRole::kFallback) return fallback_threshold;
   return std::max(verify_threshold, redundant_threshold);
 }
 
@@ -482,6 +487,23 @@ class SkeletonBuilder {
   // Joins communities the trees left apart through the best-scoring bridges
   // already scored, if they reach fallback_threshold.
   void AddFallbackBridges();
+  // Speculative batch: scores the next bridges from candidates[i] on that
+  // Kruskal meets if every one before them is rejected, at most `want`
+  // (as many as the current run of rejections, so a scene where most
+  // bridges pass stays lazy). They remain valid candidates whatever the
+  // outcome, unless an earlier one in the batch is taken.
+  void FillSpeculativeBatch(const std::vector<size_t>& candidates, size_t i,
+                            UnionFind* uf, size_t want);
+  // The first tree's budget is spent: the near misses met so far join the
+  // parts of `uf` they can, and the tree goes on at the fallback threshold
+  // (SkeletonOptions::first_tree_budget_trees). Returns the bridges taken.
+  size_t GoOnAtFallback(UnionFind* uf, size_t tree_size,
+                        size_t max_tree_edges);
+  // Joins the parts of `uf` through the bridges already scored in
+  // [fallback_threshold, verify_threshold), best first, unless their near
+  // misses outvote them; with `last_resort`, the best one between parts
+  // whose candidates were all outvoted too. Returns the bridges taken.
+  size_t JoinThroughNearMisses(UnionFind* uf, bool last_resort);
   // Joins each community's skeletal images; returns the skeleton.
   Skeleton Finish(const ViewGraph& graph, const Communities& communities);
 
@@ -531,6 +553,14 @@ class SkeletonBuilder {
     return options_.near_miss_vote && options_.max_cycle_rotation_deg > 0 &&
            scorer_ != nullptr;
   }
+  // New verifications the first tree may still ask for
+  // (SkeletonOptions::first_tree_budget_trees).
+  size_t FirstTreeBudgetLeft() const {
+    if (first_tree_budget_ == SIZE_MAX || at_fallback_) return SIZE_MAX;
+    return skeleton_.num_verified >= first_tree_budget_
+               ? 0
+               : first_tree_budget_ - skeleton_.num_verified;
+  }
   // New verifications the redundant bridges may still ask for.
   size_t RedundantBudgetLeft() const {
     if (redundant_budget_ == SIZE_MAX) return SIZE_MAX;
@@ -569,6 +599,10 @@ class SkeletonBuilder {
   // redundant_budget_trees); unlimited until the first tree is done.
   size_t verified_after_first_tree_ = 0;
   size_t redundant_budget_ = SIZE_MAX;
+  // Verifications the first tree may ask for (SIZE_MAX: no budget), and
+  // whether it has spent them and goes on at the fallback threshold.
+  size_t first_tree_budget_ = SIZE_MAX;
+  bool at_fallback_ = false;
 };
 
 std::unordered_map<ImageId, ImageId> SkeletonBuilder::HeldParents(
@@ -626,7 +660,7 @@ bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
   uint64_t undecided = 0;
   for (const size_t j : near_misses_) {
     const Bridge& n = bridges_[j];
-    if (j == k || in_skeleton_[j]) continue;
+    if (j == k) continue;
     if (held_communities_.Connected(n.c1, b.c1) &&
         held_communities_.Connected(n.c2, b.c2)) {
       between.push_back({j, n.pair.image_id1, n.pair.image_id2});
@@ -678,10 +712,14 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   if (rejected_seen_[k]) return false;
   // A redundant bridge past the verification budget is not scored (and not
   // rejected: it is simply not taken).
-  const bool redundant = !(role == BridgeRole::kTree && tree_ == 0);
-  if (redundant && !cache_->Has(k) && RedundantBudgetLeft() == 0) {
-    return false;
-  }
+  // The first tree at the fallback threshold has no budget
+  // (SkeletonOptions::first_tree_budget_trees).
+  const bool redundant = !(role == BridgeRole::kTree && tree_ == 0) &&
+                         role != BridgeRole::kFallback;
+  const size_t left = role == BridgeRole::kFallback ? SIZE_MAX
+                      : redundant                   ? RedundantBudgetLeft()
+                                                    : FirstTreeBudgetLeft();
+  if (!cache_->Has(k) && left == 0) return false;
   // The cycle first: it costs two breadth-first searches' worth of work
   // and the poses of the pairs on it, where a score can cost a network
   // evaluation; a bridge its cycle rejects is never scored.
@@ -740,6 +778,44 @@ std::vector<size_t> SkeletonBuilder::TreeOrder() const {
   return order;
 }
 
+// Verifications worth `trees` spanning trees of `tree_edges` edges each
+// (SIZE_MAX past what size_t holds).
+size_t TreesWorth(double trees, size_t tree_edges) {
+  const double n = std::ceil(trees * static_cast<double>(tree_edges));
+  return n >= static_cast<double>(SIZE_MAX) ? SIZE_MAX
+                                            : static_cast<size_t>(n);
+}
+
+void SkeletonBuilder::FillSpeculativeBatch(
+    const std::vector<size_t>& candidates, size_t i, UnionFind* uf,
+    size_t want) {
+  std::vector<size_t> todo;
+  const size_t end = std::min(candidates.size(), i + kMaxLookahead);
+  for (size_t q = i; q < end && todo.size() < want; ++q) {
+    const size_t k = candidates[q];
+    const Bridge& c = bridges_[k];
+    if (used_[c.kappa] || rejected_seen_[k] || cache_->Has(k) ||
+        uf->Connected(c.c1, c.c2)) {
+      continue;
+    }
+    todo.push_back(k);
+  }
+  cache_->Fill(todo);
+}
+
+size_t SkeletonBuilder::GoOnAtFallback(UnionFind* uf, size_t tree_size,
+                                       size_t max_tree_edges) {
+  at_fallback_ = true;
+  const size_t joined = JoinThroughNearMisses(uf, /*last_resort=*/false);
+  HISFM_LOG_INFO(
+      "first tree: verification budget of {} spent with {} of {} bridges; "
+      "{} near misses join parts, the rest goes on at the fallback "
+      "threshold {}",
+      first_tree_budget_, tree_size, max_tree_edges, joined,
+      options_.fallback_threshold);
+  return joined;
+}
+
 bool SkeletonBuilder::PackTrees() {
   // A tree can hold at most m - c edges, c = components of the community
   // graph (a forest when the view graph is disconnected).
@@ -747,6 +823,13 @@ bool SkeletonBuilder::PackTrees() {
   size_t num_components = m_;
   for (const Bridge& b : bridges_) num_components -= all.Union(b.c1, b.c2);
   const size_t max_tree_edges = m_ - num_components;
+  const bool budgeted = scorer_ != nullptr && !scorer_->IsFree();
+  // Without a fallback to join what the tree leaves apart, no budget.
+  if (budgeted && options_.first_tree_budget_trees > 0 &&
+      options_.fallback_threshold < options_.verify_threshold) {
+    first_tree_budget_ =
+        TreesWorth(options_.first_tree_budget_trees, max_tree_edges);
+  }
   const size_t batch = std::max<size_t>(
       1, std::min<size_t>(options_.max_verify_batch_size,
                           scorer_ ? scorer_->PreferredBatchSize() : 1));
@@ -767,31 +850,23 @@ bool SkeletonBuilder::PackTrees() {
       if (used_[b.kappa] || rejected_seen_[k] || uf.Connected(b.c1, b.c2)) {
         continue;
       }
+      if (t == 0 && !cache_->Has(k) && FirstTreeBudgetLeft() == 0) {
+        tree_size += GoOnAtFallback(&uf, tree_size, max_tree_edges);
+        rejection_run = 0;  // lazy again at the fallback threshold
+        if (tree_size >= max_tree_edges || uf.Connected(b.c1, b.c2)) continue;
+      }
       if (!cache_->Has(k) && batch > 1 && rejection_run > 0) {
-        // Speculative batch: the next bridges Kruskal meets if every one
-        // before them is rejected, as many as the current run of
-        // rejections (so a scene where most bridges pass stays lazy). They
-        // remain valid candidates whatever the outcome, unless an earlier
-        // one in the batch is taken.
         // Later trees: no more than the redundancy budget has left (none
         // once it is spent; Admit then refuses the unscored bridge).
-        const size_t want =
+        FillSpeculativeBatch(
+            candidates, i, &uf,
             std::min({batch, rejection_run + 1,
-                      t == 0 ? SIZE_MAX : RedundantBudgetLeft()});
-        std::vector<size_t> todo;
-        const size_t end = std::min(candidates.size(), i + kMaxLookahead);
-        for (size_t q = i; q < end && todo.size() < want; ++q) {
-          const size_t kc = candidates[q];
-          const Bridge& c = bridges_[kc];
-          if (used_[c.kappa] || rejected_seen_[kc] || cache_->Has(kc) ||
-              uf.Connected(c.c1, c.c2)) {
-            continue;
-          }
-          todo.push_back(kc);
-        }
-        cache_->Fill(todo);
+                      t == 0 ? FirstTreeBudgetLeft()
+                             : RedundantBudgetLeft()}));
       }
-      if (!Admit(k, BridgeRole::kTree)) {
+      const BridgeRole role =
+          t == 0 && at_fallback_ ? BridgeRole::kFallback : BridgeRole::kTree;
+      if (!Admit(k, role)) {
         ++rejection_run;
         continue;
       }
@@ -799,17 +874,15 @@ bool SkeletonBuilder::PackTrees() {
       uf.Union(b.c1, b.c2);
       tree_pairs.push_back(b.kappa);
       ++tree_size;
-      Take(k, cache_->Get(k), BridgeRole::kTree, t);
+      Take(k, cache_->Get(k), role, role == BridgeRole::kTree ? t : -1);
     }
     all_trees_span &= tree_size == max_tree_edges;
-    if (t == 0 && scorer_ != nullptr && !scorer_->IsFree()) {
+    if (t == 0) skeleton_.num_verified_first_tree = skeleton_.num_verified;
+    if (t == 0 && budgeted) {
       verified_after_first_tree_ = skeleton_.num_verified;
-      const double budget = std::ceil(options_.redundant_budget_trees *
-                                      std::max(1, skeleton_.num_trees - 1) *
-                                      static_cast<double>(max_tree_edges));
-      redundant_budget_ = budget >= static_cast<double>(SIZE_MAX)
-                              ? SIZE_MAX
-                              : static_cast<size_t>(budget);
+      redundant_budget_ = TreesWorth(
+          options_.redundant_budget_trees * std::max(1, skeleton_.num_trees - 1),
+          max_tree_edges);
     }
     for (uint32_t kappa : tree_pairs) used_[kappa] = 1;
     // Later trees never take a rejected bridge or one of a used pair.
@@ -873,32 +946,31 @@ void SkeletonBuilder::AddTopWeightBridges() {
   }
 }
 
-void SkeletonBuilder::AddFallbackBridges() {
-  if (options_.fallback_threshold >= options_.verify_threshold) return;
-  UnionFind uf(m_);
-  for (size_t k = 0; k < bridges_.size(); ++k) {
-    if (in_skeleton_[k]) uf.Union(bridges_[k].c1, bridges_[k].c2);
-  }
+size_t SkeletonBuilder::JoinThroughNearMisses(UnionFind* uf,
+                                              bool last_resort) {
   // Bridges already scored below the threshold, best first (ties: heavier
   // first, then Kruskal's order).
   std::vector<size_t> scored;
   for (size_t k = 0; k < bridges_.size(); ++k) {
     if (!in_skeleton_[k] && cache_->Has(k) &&
-        cache_->Get(k) >= options_.fallback_threshold) {
+        cache_->Get(k) >= options_.fallback_threshold &&
+        !uf->Connected(bridges_[k].c1, bridges_[k].c2)) {
       scored.push_back(k);
     }
   }
   std::stable_sort(scored.begin(), scored.end(), [&](size_t a, size_t b) {
     return cache_->Get(a) > cache_->Get(b);
   });
+  size_t joined = 0;
   auto take = [&](size_t k) {
-    uf.Union(bridges_[k].c1, bridges_[k].c2);
+    uf->Union(bridges_[k].c1, bridges_[k].c2);
     used_[bridges_[k].kappa] = 1;
     Take(k, cache_->Get(k), BridgeRole::kFallback, -1);
+    ++joined;
   };
   for (const size_t k : scored) {
     const Bridge& b = bridges_[k];
-    if (uf.Connected(b.c1, b.c2) || outvoted_[k]) continue;
+    if (uf->Connected(b.c1, b.c2) || outvoted_[k]) continue;
     double worst = -1.0;
     if (NearMissVoteOn() && Outvoted(k, &worst)) {
       outvoted_[k] = 1;
@@ -910,9 +982,21 @@ void SkeletonBuilder::AddFallbackBridges() {
   // Where the vote refused every candidate between two parts (the near
   // misses disagree among themselves), the best-scoring one still joins
   // them: one model rather than pieces.
-  for (const size_t k : scored) {
-    if (!uf.Connected(bridges_[k].c1, bridges_[k].c2)) take(k);
+  if (last_resort) {
+    for (const size_t k : scored) {
+      if (!uf->Connected(bridges_[k].c1, bridges_[k].c2)) take(k);
+    }
   }
+  return joined;
+}
+
+void SkeletonBuilder::AddFallbackBridges() {
+  if (options_.fallback_threshold >= options_.verify_threshold) return;
+  UnionFind uf(m_);
+  for (size_t k = 0; k < bridges_.size(); ++k) {
+    if (in_skeleton_[k]) uf.Union(bridges_[k].c1, bridges_[k].c2);
+  }
+  JoinThroughNearMisses(&uf, /*last_resort=*/true);
 }
 
 Skeleton SkeletonBuilder::Finish(const ViewGraph& graph,

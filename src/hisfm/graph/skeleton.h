@@ -42,6 +42,11 @@
 // in rotation around the cycles it closes with them
 // (SkeletonOptions::near_miss_vote; no pair is scored for it).
 //
+// A sixth: the first tree verifies within a budget when there is a
+// fallback (SkeletonOptions::first_tree_budget_trees); once it is spent,
+// the near misses join what they can and the tree goes on at the fallback
+// threshold.
+//
 // Kruskal is kept exact within that order (a deferral rule that was tried
 // verified more bridges, not fewer: docs/decisions.md).
 #pragma once
@@ -90,6 +95,21 @@ struct SkeletonOptions {
   /// tree of true pairs) it meets nearly all of them: this keeps the cost
   /// of redundancy to about one verification per edge it may add.
   double redundant_budget_trees = 1.0;
+  /// Verification budget of the first tree, in spanning trees: it scores
+  /// at most first_tree_budget_trees * (m - c) bridges at tau (speculative
+  /// batches included). Once that is spent, the near misses met so far (in
+  /// [fallback_threshold, tau)) join the parts they can, best score first,
+  /// each subject to the near-miss vote, and the tree goes on at
+  /// fallback_threshold without a budget, still lazily (as Algorithm 1 at
+  /// tau = fallback_threshold); what it takes from then on has the role
+  /// kFallback. 0 = no budget, as Algorithm 1. Only with a fallback
+  /// (fallback_threshold < verify_threshold; at the defaults, 0.5 and 0.5,
+  /// there is none and nothing changes) and a scorer that is not free. A
+  /// deviation from Algorithm 1: with tau above the scores of the true
+  /// bridges between two parts, Kruskal scans every bridge between them
+  /// looking for one that passes (a 1,000-image street at tau = 0.8: a third
+  /// of its pairs, nearly all of them confident doppelgangers).
+  double first_tree_budget_trees = 4.0;
   /// Extra top-weight bridges added after the trees (verified, each on a
   /// community pair not used yet; within the redundancy budget).
   int num_top_bridges = 0;
@@ -242,6 +262,9 @@ struct Skeleton {
   size_t num_outvoted = 0;
   /// Number of pairs scored by the verifier (each at most once).
   size_t num_verified = 0;
+  /// Of those, the pairs the first tree scored
+  /// (SkeletonOptions::first_tree_budget_trees).
+  size_t num_verified_first_tree = 0;
   /// Number of calls into the scorer (batches).
   size_t num_scorer_calls = 0;
 

@@ -668,7 +668,9 @@ class TableScorer : public BridgeScorer {
  public:
   std::map<ImagePair, double> scores;
   std::vector<ImagePair> calls;
+  size_t batch = 1;
   std::string Name() const override { return "table"; }
+  size_t PreferredBatchSize() const override { return batch; }
   std::vector<double> Score(const std::vector<ImagePair>& pairs) override {
     std::vector<double> s;
     for (const ImagePair& p : pairs) {
@@ -738,6 +740,135 @@ TEST(Skeleton, FallbackJoinsCommunitiesThroughTheBestScoredBridge) {
   EXPECT_TRUE(std::binary_search(edges.begin(), edges.end(), ImagePair(1, 4)));
   EXPECT_FALSE(std::binary_search(edges.begin(), edges.end(), ImagePair(2, 3)));
   EXPECT_FALSE(std::binary_search(edges.begin(), edges.end(), ImagePair(1, 3)));
+}
+
+TEST(Skeleton, FirstTreeBudgetJoinsThroughTheBestNearMiss) {
+  const ViewGraph g = TwoCommunityGraph();
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.verify_threshold = 0.8;
+  options.fallback_threshold = 0.5;
+  options.num_backup_bridges = 0;  // (1, 3) would back up the weak (1, 4)
+  // Builds with `budget`, scoring from a table in which only the lightest
+  // bridge passes tau = 0.8 and (1, 4) is the best near miss; the pairs
+  // scored go to `calls`.
+  auto build = [&](double budget, std::vector<ImagePair>* calls,
+                   size_t batch = 1) {
+    options.first_tree_budget_trees = budget;
+    TableScorer scorer;
+    scorer.batch = batch;
+    scorer.scores = {{ImagePair(2, 3), 0.6},
+                     {ImagePair(1, 4), 0.7},
+                     {ImagePair(1, 3), 0.9}};
+    Skeleton s = BuildSkeleton(g, c, &scorer, options);
+    *calls = scorer.calls;
+    return s;
+  };
+  const std::vector<ImagePair> all_three = {ImagePair(2, 3), ImagePair(1, 4),
+                                            ImagePair(1, 3)};
+  std::vector<ImagePair> calls;
+
+  // No budget (Algorithm 1): Kruskal scores its way down to (1, 3).
+  const Skeleton all = build(0, &calls);
+  EXPECT_EQ(calls, all_three);
+  ASSERT_EQ(all.bridges.size(), 1u);
+  EXPECT_EQ(all.bridges[0].pair, ImagePair(1, 3));
+  EXPECT_EQ(all.bridges[0].role, BridgeRole::kTree);
+
+  // Two trees' worth of one edge: two scores, then the best of them joins
+  // the communities; (1, 3) is neither scored nor recorded as rejected.
+  const Skeleton s = build(2, &calls);
+  EXPECT_EQ(calls, (std::vector<ImagePair>{ImagePair(2, 3), ImagePair(1, 4)}));
+  EXPECT_EQ(s.num_verified, 2u);
+  EXPECT_EQ(s.num_verified_first_tree, 2u);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(1, 4));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kFallback);
+  ASSERT_EQ(s.rejected.size(), 2u);
+  for (const BridgeRecord& r : s.rejected) {
+    EXPECT_NE(r.pair, ImagePair(1, 3));
+  }
+
+  // Speculative batches stop at the budget too (a batch of two would score
+  // (1, 4) and (1, 3) together).
+  const Skeleton batched = build(2, &calls, /*batch=*/8);
+  EXPECT_EQ(calls, (std::vector<ImagePair>{ImagePair(2, 3), ImagePair(1, 4)}));
+  ASSERT_EQ(batched.bridges.size(), 1u);
+  EXPECT_EQ(batched.bridges[0].pair, ImagePair(1, 4));
+
+  // A budget the tree does not reach changes nothing.
+  const Skeleton roomy = build(3, &calls);
+  EXPECT_EQ(calls, all_three);
+  ASSERT_EQ(roomy.bridges.size(), 1u);
+  EXPECT_EQ(roomy.bridges[0].pair, ImagePair(1, 3));
+
+  // Without a fallback (its threshold at tau) there is no budget.
+  options.fallback_threshold = 0.8;
+  const Skeleton no_fallback = build(2, &calls);
+  EXPECT_EQ(calls, all_three);
+  ASSERT_EQ(no_fallback.bridges.size(), 1u);
+  EXPECT_EQ(no_fallback.bridges[0].pair, ImagePair(1, 3));
+
+  options.first_tree_budget_trees = -1;
+  EXPECT_THROW(options.Check(), Error);
+  options.first_tree_budget_trees = INFINITY;
+  EXPECT_THROW(options.Check(), Error);
+}
+
+TEST(Skeleton, PastItsBudgetTheFirstTreeGoesOnAtTheFallbackThreshold) {
+  // Communities {1, 2}, {3, 4} and {5, 6}; bridges by weight: (2, 3) A-B,
+  // (4, 5) B-C, (3, 6) B-C, (1, 5) A-C.
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6}, {{ImagePair(1, 2), 300},
+                           {ImagePair(3, 4), 300},
+                           {ImagePair(5, 6), 300},
+                           {ImagePair(2, 3), 60},
+                           {ImagePair(4, 5), 58},
+                           {ImagePair(3, 6), 56},
+                           {ImagePair(1, 5), 54}});
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 3u);
+  const std::map<ImagePair, double> scores = {{ImagePair(2, 3), 0.6},
+                                              {ImagePair(4, 5), 0.2},
+                                              {ImagePair(3, 6), 0.7},
+                                              {ImagePair(1, 5), 0.9}};
+  SkeletonOptions options;
+  options.num_trees = 1;
+  options.rank_tiers = 0;
+  options.num_backup_bridges = 0;
+  options.verify_threshold = 0.8;
+  options.fallback_threshold = 0.5;
+
+  // No budget: Kruskal scores all four and takes (1, 5); the fallback
+  // joins B-C through (3, 6).
+  options.first_tree_budget_trees = 0;
+  TableScorer unlimited;
+  unlimited.scores = scores;
+  const Skeleton all = BuildSkeleton(g, c, &unlimited, options);
+  EXPECT_EQ(unlimited.calls.size(), 4u);
+  EXPECT_EQ(Roles(all.bridges),
+            (std::set<std::pair<ImagePair, BridgeRole>>{
+                {ImagePair(1, 5), BridgeRole::kTree},
+                {ImagePair(3, 6), BridgeRole::kFallback}}));
+
+  // One tree's worth (two scores): the near miss (2, 3) joins A-B, and the
+  // scan goes on at 0.5, scoring (3, 6) and taking it; (1, 5) is never
+  // scored.
+  options.first_tree_budget_trees = 1;
+  TableScorer budgeted;
+  budgeted.scores = scores;
+  const Skeleton s = BuildSkeleton(g, c, &budgeted, options);
+  EXPECT_EQ(budgeted.calls,
+            (std::vector<ImagePair>{ImagePair(2, 3), ImagePair(4, 5),
+                                    ImagePair(3, 6)}));
+  EXPECT_EQ(s.num_verified_first_tree, 3u);
+  EXPECT_EQ(Roles(s.bridges),
+            (std::set<std::pair<ImagePair, BridgeRole>>{
+                {ImagePair(2, 3), BridgeRole::kFallback},
+                {ImagePair(3, 6), BridgeRole::kFallback}}));
+  for (const BridgeRecord& b : s.bridges) EXPECT_EQ(b.tree, -1);
 }
 
 TEST(Skeleton, FallbackNeedsTheFallbackThreshold) {

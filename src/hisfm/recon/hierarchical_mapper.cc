@@ -274,11 +274,13 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   const Hierarchy& h = in.hierarchy;
   HISFM_LOG_INFO(
       "{} communities, {} candidate bridges, K = {}, {} bridges taken, {} "
-      "rejected, {} refused by the near-miss vote, {} verified by '{}'",
+      "rejected, {} refused by the near-miss vote, {} verified by '{}' "
+      "({} for the first tree)",
       h.communities.NumCommunities(), h.skeleton.num_candidate_bridges,
       h.skeleton.num_trees, h.skeleton.bridges.size(),
       h.skeleton.rejected.size(), h.skeleton.num_outvoted,
-      h.skeleton.num_verified, in.verifier_name);
+      h.skeleton.num_verified, in.verifier_name,
+      h.skeleton.num_verified_first_tree);
   HISFM_LOG_INFO(
       "skeleton: {} images, {} edges; hierarchy: {} edges; {} component(s); "
       "{} isolated image(s) ({:.2f} s)",
@@ -454,6 +456,7 @@ nlohmann::json HierarchySummary(const LoadedInput& in) {
           {"hierarchy_edges", h.Edges().size()},
           {"verifier", in.verifier_name},
           {"verifier_calls", h.skeleton.num_verified},
+          {"verifier_calls_first_tree", h.skeleton.num_verified_first_tree},
           {"verifier_batches", h.skeleton.num_scorer_calls},
           {"verified_fraction",
            in.num_verified_pairs

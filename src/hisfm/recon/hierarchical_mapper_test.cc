@@ -182,9 +182,26 @@ TEST(HierarchicalMapper, CupIsCorrectWhereColmapFolds) {
 // At the paper's tau = 0.8 the builtin scores cup's strong true bridges
 // between its two halves 0.70 to 0.80 and weak doppelgangers above 0.8;
 // the near-miss vote (SkeletonOptions::near_miss_vote) refuses those.
+// At tau = 0.8 the first tree cannot span with bridges that pass; within
+// its verification budget it leaves the rest to the fallback threshold.
 TEST(HierarchicalMapper, CupIsCorrectAtThePapersTau) {
   HierarchicalMapperOptions options;
   options.hierarchy.skeleton.verify_threshold = 0.8;
+  nlohmann::json summary;
+  ExpectCorrect("yan2017/cup", 64, "reference", options, &summary);
+  if (!summary.is_null()) {
+    // Issue 12's bound: verifier calls within 5% of the verified pairs.
+    EXPECT_LE(summary["verifier_calls"].get<double>(),
+              0.05 * summary["verified_pairs"].get<double>());
+  }
+}
+
+// Without the budget Algorithm 1's first tree scans on and meets weak
+// doppelgangers above tau; the near-miss vote refuses them.
+TEST(HierarchicalMapper, CupIsCorrectAtThePapersTauWithoutABudget) {
+  HierarchicalMapperOptions options;
+  options.hierarchy.skeleton.verify_threshold = 0.8;
+  options.hierarchy.skeleton.first_tree_budget_trees = 0;
   nlohmann::json summary;
   ExpectCorrect("yan2017/cup", 64, "reference", options, &summary);
   if (!summary.is_null()) {

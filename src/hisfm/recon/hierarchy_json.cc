@@ -81,6 +81,7 @@ nlohmann::json HierarchyToJson(
           {"num_rank_excluded_bridges", h.skeleton.num_rank_excluded},
           {"num_outvoted_bridges", h.skeleton.num_outvoted},
           {"num_verified_bridges", h.skeleton.num_verified},
+          {"num_verified_first_tree", h.skeleton.num_verified_first_tree},
           {"images", images},
           {"skeleton_bridges", bridges},
           {"rejected_bridges", rejected},
