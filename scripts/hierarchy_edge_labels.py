@@ -6,9 +6,10 @@ of every verified pair split into true, doppelganger and random matches.
 `hisfm mapper` writes the hierarchy it reconstructed from to
 WORK/view_graph.json (WORK: --work_path, default OUTPUT_work). This script
 joins the two and prints, per kind of edge (tree bridges, intra-community
-edges of the skeleton, support edges, leaf edges, rejected bridges), how many
-are true, doppelganger and mixed pairs, and lists every edge of the hierarchy
-that is not true and every true bridge that was rejected, with its score.
+edges of the skeleton, support edges, leaf edges, rejected bridges, rejected
+trusted edges), how many are true, doppelganger and mixed pairs, and lists
+every edge of the hierarchy that is not true and every true bridge or trusted
+edge that the verifier rejected, with its score.
 That is the first question about a folded model: which pair folded it.
 
 A pair is labelled by the share of its inliers that are true matches:
@@ -34,6 +35,8 @@ NAMES = {TRUE: "true", FALSE: "doppelganger", MIXED: "mixed"}
 # Kinds of edge in view_graph.json, in the order they are reported.
 EDGE_KINDS = ["skeleton_bridges", "skeleton_intra_edges", "support_edges",
               "leaf_edges"]
+# Kinds of edge the verifier rejected: a suspect when it is true.
+REJECTED_KINDS = ["rejected_bridges", "rejected_trusted_edges"]
 
 
 def image_id(name):
@@ -84,16 +87,17 @@ def edge_label(labels, edge):
 def summarize(labels, view_graph):
     """{kind: {"counts": {label name: n}, "suspects": [edge dicts]}}: per kind
     of edge, the counts by label and the edges to look at (hierarchy edges not
-    true; rejected bridges that are true), each with its label entry."""
+    true; rejected bridges and trusted edges that are true), each with its
+    label entry."""
     out = {}
-    for kind in EDGE_KINDS + ["rejected_bridges"]:
+    for kind in EDGE_KINDS + REJECTED_KINDS:
         counts = {name: 0 for name in list(NAMES.values()) + ["unlabelled"]}
         suspects = []
         for edge in view_graph.get(kind, []):
             entry = edge_label(labels, edge)
             label = entry[0] if entry else None
             counts[NAMES.get(label, "unlabelled")] += 1
-            rejected = kind == "rejected_bridges"
+            rejected = kind in REJECTED_KINDS
             if (label == TRUE) == rejected:
                 suspects.append(dict(edge, label=entry))
         out[kind] = {"counts": counts, "suspects": suspects}

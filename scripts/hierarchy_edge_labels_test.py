@@ -35,6 +35,12 @@ VIEW_GRAPH = {
         {"image_id1": 3, "image_id2": 4, "inliers": 350, "score": 0.2},
         {"image_id1": 4, "image_id2": 5, "inliers": 200, "score": 0.1},
     ],
+    "rejected_trusted_edges": [
+        {"image_id1": 3, "image_id2": 4, "inliers": 350, "score": 0.08,
+         "round": 0},
+        {"image_id1": 1, "image_id2": 4, "inliers": 250, "score": 0.02,
+         "round": 1},
+    ],
 }
 
 
@@ -84,6 +90,12 @@ class HierarchyEdgeLabelsTest(unittest.TestCase):
         rejected = summary["rejected_bridges"]["suspects"]
         self.assertEqual([(e["image_id1"], e["image_id2"]) for e in rejected],
                          [(3, 4)])
+        # So is a rejected trusted edge: 3-4 is true, 1-4 a doppelganger.
+        trusted = summary["rejected_trusted_edges"]
+        self.assertEqual(trusted["counts"]["true"], 1)
+        self.assertEqual(trusted["counts"]["doppelganger"], 1)
+        self.assertEqual([(e["image_id1"], e["image_id2"])
+                          for e in trusted["suspects"]], [(3, 4)])
 
     def test_command_prints_and_writes_labels(self):
         with tempfile.TemporaryDirectory() as tmp:

@@ -93,6 +93,11 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         o->verifier.verified_hierarchy.trusted_edges.max_rounds,
         "Rebuilds of the hierarchy without rejected trusted edges, at "
         "most");
+  visit("--HiSfM.trusted_keep_rank",
+        o->verifier.verified_hierarchy.trusted_keep_rank,
+        "builtin verifier: a trusted edge among the this many strongest "
+        "pairs of both its images is kept whatever its score (0: every one "
+        "is judged)");
   visit("--HiSfM.judge_trusted_edges", o->verifier.judge_trusted_edges,
         "Verifiers other than builtin (which always does): score the "
         "trusted edges too, not only the bridges");

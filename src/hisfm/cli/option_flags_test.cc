@@ -42,6 +42,10 @@ TEST(CheckMapperOptions, NamesTheFlagOfTheBadOption) {
             "invalid option --HiSfM.coverage_grid_cells = 1: must be in "
             "[2, 100]");
   o = HierarchicalMapperOptions();
+  o.verifier.verified_hierarchy.trusted_keep_rank = -1;
+  EXPECT_EQ(CheckMessage(o),
+            "invalid option --HiSfM.trusted_keep_rank = -1: must be >= 0");
+  o = HierarchicalMapperOptions();
   o.colmap.colmap_path = "";
   EXPECT_EQ(CheckMessage(o),
             "invalid option --colmap_path = \"\": must be non-empty");

@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -339,6 +341,34 @@ TEST(HisfmCli, ViewGraphWritesTheHierarchy) {
   for (const char* key : {"\"skeleton_bridges\"", "\"leaf_edges\"",
                           "\"rejected_bridges\"", "\"community\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
+  }
+}
+
+// The builtin verifier rejects one trusted edge of the shared synthetic
+// street (a doppelganger among the communities' strongest pairs); the JSON
+// names it with its score, and the list agrees with the summary's count.
+TEST(HisfmCli, ViewGraphListsTheRejectedTrustedEdges) {
+  const std::string db =
+      SharedDataPath("synthetic/facade_street_60", "database.db");
+  if (db.empty()) GTEST_SKIP() << "shared data not found: " << SharedDataDir();
+  TempDir tmp;
+  const Result r = RunHisfm(
+      "view_graph --database_path " + db + " --output_path " + (tmp / "h.json"),
+      tmp);
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(ReadTextFile(tmp / "h.json"));
+  const nlohmann::json& rejected = j.at("rejected_trusted_edges");
+  ASSERT_TRUE(rejected.is_array());
+  EXPECT_GE(rejected.size(), 1u);
+  EXPECT_EQ(rejected.size(),
+            j.at("summary").at("verification").at("rejected_trusted_edges")
+                .get<size_t>());
+  for (const nlohmann::json& e : rejected) {
+    EXPECT_NE(e.at("image_id1"), e.at("image_id2"));
+    EXPECT_GT(e.at("inliers").get<int>(), 0);
+    // Rejected: below the trusted-edge threshold (default 0.25).
+    EXPECT_LT(e.at("score").get<double>(), 0.25);
+    EXPECT_GE(e.at("round").get<int>(), 0);
   }
 }
 

@@ -101,22 +101,6 @@ struct Bridge {
   uint32_t rank = 0;
 };
 
-// Per edge of `graph` (in Edges() order): the larger, over its two images,
-// of its place among that image's edges by weight (1 = the strongest; ties
-// as StrongestEdges).
-std::vector<uint32_t> MutualRanks(const ViewGraph& graph) {
-  std::vector<uint32_t> ranks(graph.NumEdges(), 0);
-  for (size_t i = 0; i < graph.NumImages(); ++i) {
-    const std::vector<size_t> edges =
-        StrongestEdges(graph, i, graph.IncidentEdges(i).size());
-    for (size_t r = 0; r < edges.size(); ++r) {
-      ranks[edges[r]] =
-          std::max(ranks[edges[r]], static_cast<uint32_t>(r + 1));
-    }
-  }
-  return ranks;
-}
-
 constexpr double kNotScored = -1.0;
 // Candidates a speculative batch looks through, at most.
 constexpr size_t kMaxLookahead = 4096;
@@ -710,12 +694,12 @@ bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
 
 bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
   if (rejected_seen_[k]) return false;
-  // A redundant bridge past the verification budget is not scored (and not
-  // rejected: it is simply not taken).
-  // The first tree at the fallback threshold has no budget
-  // (SkeletonOptions::first_tree_budget_trees).
-  const bool redundant = !(role == BridgeRole::kTree && tree_ == 0) &&
-                         role != BridgeRole::kFallback;
+  // A bridge past its verification budget is not scored (and not
+  // rejected: it is simply not taken). Redundant bridges share one budget,
+  // the first tree has its own until it goes on at the fallback threshold
+  // (SkeletonOptions::first_tree_budget_trees), and fallback bridges have
+  // none.
+  const bool redundant = !(role == BridgeRole::kTree && tree_ == 0);
   const size_t left = role == BridgeRole::kFallback ? SIZE_MAX
                       : redundant                   ? RedundantBudgetLeft()
                                                     : FirstTreeBudgetLeft();
@@ -948,8 +932,9 @@ void SkeletonBuilder::AddTopWeightBridges() {
 
 size_t SkeletonBuilder::JoinThroughNearMisses(UnionFind* uf,
                                               bool last_resort) {
-  // Bridges already scored below the threshold, best first (ties: heavier
-  // first, then Kruskal's order).
+  // Bridges scored at least fallback_threshold but not taken (near misses
+  // scored below verify_threshold, and any the vote refused), best first
+  // (ties: heavier first, then Kruskal's order).
   std::vector<size_t> scored;
   for (size_t k = 0; k < bridges_.size(); ++k) {
     if (!in_skeleton_[k] && cache_->Has(k) &&
@@ -992,10 +977,8 @@ size_t SkeletonBuilder::JoinThroughNearMisses(UnionFind* uf,
 
 void SkeletonBuilder::AddFallbackBridges() {
   if (options_.fallback_threshold >= options_.verify_threshold) return;
-  UnionFind uf(m_);
-  for (size_t k = 0; k < bridges_.size(); ++k) {
-    if (in_skeleton_[k]) uf.Union(bridges_[k].c1, bridges_[k].c2);
-  }
+  // The parts the bridges taken so far hold together (Take unions each).
+  UnionFind uf = held_communities_;
   JoinThroughNearMisses(&uf, /*last_resort=*/true);
 }
 

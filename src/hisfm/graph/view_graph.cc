@@ -93,4 +93,17 @@ std::vector<ImageId> StrongestNeighbours(const ViewGraph& graph,
   return out;
 }
 
+std::vector<uint32_t> MutualRanks(const ViewGraph& graph) {
+  std::vector<uint32_t> ranks(graph.NumEdges(), 0);
+  for (size_t i = 0; i < graph.NumImages(); ++i) {
+    const std::vector<size_t> edges =
+        StrongestEdges(graph, i, graph.IncidentEdges(i).size());
+    for (size_t r = 0; r < edges.size(); ++r) {
+      ranks[edges[r]] =
+          std::max(ranks[edges[r]], static_cast<uint32_t>(r + 1));
+    }
+  }
+  return ranks;
+}
+
 }  // namespace hisfm

@@ -71,4 +71,11 @@ std::vector<ImageId> StrongestNeighbours(const ViewGraph& graph,
 std::vector<size_t> StrongestEdges(const ViewGraph& graph, size_t index,
                                    size_t count);
 
+/// Per edge of `graph` (in Edges() order), its mutual rank: the larger,
+/// over its two images, of its place among that image's edges by weight
+/// (1 = the strongest; ties as StrongestEdges). An edge of mutual rank r
+/// is among the r strongest pairs of both its images (mutual r-nearest
+/// neighbours).
+std::vector<uint32_t> MutualRanks(const ViewGraph& graph);
+
 }  // namespace hisfm

@@ -103,6 +103,8 @@ struct LoadedInput {
       inliers;
   // Counts of the trusted-edge rounds (and of the builtin verifier).
   nlohmann::json verification;
+  // The trusted edges the verifier rejected (graph/trusted_edges.h).
+  std::vector<RejectedTrustedEdge> rejected_trusted_edges;
   // Verified pairs kept back for images the hierarchy cannot register
   // (VerifiedHierarchy::reserve_edges).
   std::vector<ViewGraphEdge> reserve_edges;
@@ -202,6 +204,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
     in.reserve_edges = std::move(verified.reserve_edges);
+    in.rejected_trusted_edges = verified.rejected;
     in.verification = {{"rounds", verified.rounds},
                     {"rejected_trusted_edges", verified.rejected.size()},
                     {"unresolved_trusted_edges", verified.num_unresolved},
@@ -254,6 +257,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
           judged.num_scored, judged.rejected.size(), judged.rounds,
           judged.scores.size());
       scores = std::move(judged.scores);
+      in.rejected_trusted_edges = std::move(judged.rejected);
     } else {
       in.hierarchy = BuildHierarchy(
           in.graph,
@@ -729,9 +733,19 @@ std::string RefineModel(const ComponentRun& run, const ModelFolder& attached,
 }
 
 // Writes the hierarchy as JSON (HierarchyToJson) to `path`.
+// The hierarchy as JSON (HierarchyToJson) with the trusted edges the
+// verifier rejected ("rejected_trusted_edges").
+nlohmann::json ViewGraphJson(const LoadedInput& in) {
+  nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
+  out["rejected_trusted_edges"] =
+      RejectedTrustedEdgesToJson(in.rejected_trusted_edges);
+  return out;
+}
+
+// Writes ViewGraphJson(in) to `path`.
 void WriteViewGraphJson(const LoadedInput& in, const std::string& path) {
   std::ofstream out(path);
-  out << HierarchyToJson(in.hierarchy, in.graph, in.names).dump(1);
+  out << ViewGraphJson(in).dump(1);
 }
 
 // Checks the mapper's paths before any work: a readable database, an image
@@ -1104,7 +1118,7 @@ nlohmann::json ComputeViewGraphJson(const std::string& database_path,
   options.Check();
   RequireValidDatabase(database_path);
   LoadedInput in = LoadAndBuildHierarchy(database_path, image_path, options);
-  nlohmann::json out = HierarchyToJson(in.hierarchy, in.graph, in.names);
+  nlohmann::json out = ViewGraphJson(in);
   out["summary"] = HierarchySummary(in);
   out["timings"] = {{"read_database", in.read_seconds},
                     {"filter_pairs", in.filter_seconds},

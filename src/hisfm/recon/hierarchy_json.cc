@@ -92,4 +92,17 @@ nlohmann::json HierarchyToJson(
           {"isolated_images", h.isolated_images}};
 }
 
+nlohmann::json RejectedTrustedEdgesToJson(
+    const std::vector<RejectedTrustedEdge>& rejected) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const RejectedTrustedEdge& e : rejected) {
+    out.push_back({{"image_id1", e.pair.image_id1},
+                   {"image_id2", e.pair.image_id2},
+                   {"inliers", e.weight},
+                   {"score", e.score},
+                   {"round", e.round}});
+  }
+  return out;
+}
+
 }  // namespace hisfm

@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "hisfm/graph/hierarchy.h"
+#include "hisfm/graph/trusted_edges.h"
 #include "hisfm/graph/view_graph.h"
 
 namespace hisfm {
@@ -23,5 +24,11 @@ namespace hisfm {
 nlohmann::json HierarchyToJson(
     const Hierarchy& hierarchy, const ViewGraph& graph,
     const std::unordered_map<ImageId, std::string>& image_names);
+
+/// The trusted edges the verifier rejected (graph/trusted_edges.h), as a
+/// JSON array of {image_id1, image_id2, inliers, score, round}, in the
+/// order they were rejected.
+nlohmann::json RejectedTrustedEdgesToJson(
+    const std::vector<RejectedTrustedEdge>& rejected);
 
 }  // namespace hisfm

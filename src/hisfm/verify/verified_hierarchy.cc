@@ -10,6 +10,7 @@ namespace hisfm {
 
 void VerifiedHierarchyOptions::Check() const {
   trusted_edges.Check();
+  HISFM_CHECK_OPTION(trusted_keep_rank, trusted_keep_rank >= 0, ">= 0");
   HISFM_CHECK_OPTION(support_edges, support_edges >= 0, ">= 0");
   HISFM_CHECK_OPTION(support_threshold,
                      support_threshold >= 0 && support_threshold <= 1,
@@ -94,6 +95,17 @@ VerifiedHierarchy BuildVerifiedHierarchy(
     const HierarchyOptions& hierarchy_options,
     const VerifiedHierarchyOptions& options) {
   options.Check();
+  // The pairs among the few strongest of both their images
+  // (VerifiedHierarchyOptions::trusted_keep_rank).
+  std::set<ImagePair> kept_by_rank;
+  if (options.trusted_keep_rank > 0) {
+    const std::vector<uint32_t> ranks = MutualRanks(graph);
+    for (size_t e = 0; e < ranks.size(); ++e) {
+      if (ranks[e] <= static_cast<uint32_t>(options.trusted_keep_rank)) {
+        kept_by_rank.insert(graph.Edges()[e].pair);
+      }
+    }
+  }
   VerifiedHierarchy out;
   static_cast<JudgedHierarchy&>(out) = BuildHierarchyJudgingTrustedEdges(
       graph,
@@ -102,9 +114,10 @@ VerifiedHierarchy BuildVerifiedHierarchy(
       },
       hierarchy_options, options.trusted_edges,
       // Only the test's evidence removes a trusted edge: a pair it could
-      // not judge keeps the trust the paper gives it.
-      [&verifier](const ImagePair& pair) {
-        return verifier.Features(pair).Speaks();
+      // not judge keeps the trust the paper gives it, and so does a pair
+      // among the strongest of both its images.
+      [&verifier, &kept_by_rank](const ImagePair& pair) {
+        return !kept_by_rank.count(pair) && verifier.Features(pair).Speaks();
       });
   AddSupportEdges(out.graph, verifier, options.support_edges,
                   options.support_threshold, &out.hierarchy,

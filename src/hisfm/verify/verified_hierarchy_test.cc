@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <set>
 #include <string>
@@ -48,11 +49,23 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
   for (const ViewGraphEdge& e : v.graph.Edges()) {
     EXPECT_EQ(e.weight, input.Weight(e.pair.image_id1, e.pair.image_id2));
   }
-  // Trusted edges left below the threshold are counted as unresolved.
+  // Trusted edges left below the threshold are counted as unresolved,
+  // except those kept for their mutual rank (trusted_keep_rank).
+  const std::vector<uint32_t> ranks = MutualRanks(input);
+  std::set<ImagePair> kept_by_rank;
+  for (size_t e = 0; e < ranks.size(); ++e) {
+    if (ranks[e] <= static_cast<uint32_t>(options.trusted_keep_rank)) {
+      kept_by_rank.insert(input.Edges()[e].pair);
+    }
+  }
   size_t failing = 0;
   for (const ImagePair& p : TrustedEdges(v.hierarchy)) {
     EXPECT_GT(v.graph.Weight(p.image_id1, p.image_id2), 0u);
-    failing += verifier.ScoreOf(p) < options.trusted_edges.threshold;
+    failing += verifier.ScoreOf(p) < options.trusted_edges.threshold &&
+               !kept_by_rank.count(p);
+  }
+  for (const RejectedTrustedEdge& r : v.rejected) {
+    EXPECT_FALSE(kept_by_rank.count(r.pair)) << "kept by its rank";
   }
   EXPECT_EQ(failing, v.num_unresolved);
   if (v.rounds < options.trusted_edges.max_rounds) {
@@ -145,11 +158,56 @@ TEST(VerifiedHierarchy, DefaultOptionsRejectDoppelgangerTrustedEdges) {
   EXPECT_LT(v.num_inliers_after, v.num_inliers_before);
 }
 
+// Trusted edges among the strongest pairs of both their images are kept
+// whatever their score (VerifiedHierarchyOptions::trusted_keep_rank).
+TEST(VerifiedHierarchy, KeepRankKeepsMutuallyStrongestPairs) {
+  street_test::Opened street(1, 16);
+  MultiViewVerifier verifier(street.db, street.graph);
+  const std::vector<uint32_t> ranks = MutualRanks(street.graph);
+  std::map<ImagePair, uint32_t> rank_of;
+  for (size_t e = 0; e < ranks.size(); ++e) {
+    rank_of[street.graph.Edges()[e].pair] = ranks[e];
+  }
+  // The smallest mutual rank among the edges rejected when every trusted
+  // edge is judged.
+  VerifiedHierarchyOptions all;
+  all.trusted_keep_rank = 0;
+  const VerifiedHierarchy judged =
+      BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), all);
+  ExpectVerifiedHierarchy(street.graph, verifier, all, judged);
+  ASSERT_FALSE(judged.rejected.empty());
+  uint32_t lowest = UINT32_MAX;
+  for (const RejectedTrustedEdge& r : judged.rejected) {
+    lowest = std::min(lowest, rank_of.at(r.pair));
+  }
+  // Keeping that rank keeps those edges: no edge of that rank or less is
+  // rejected, and at least one that was rejected before is spared.
+  VerifiedHierarchyOptions keep;
+  keep.trusted_keep_rank = static_cast<int>(lowest);
+  const VerifiedHierarchy kept =
+      BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), keep);
+  ExpectVerifiedHierarchy(street.graph, verifier, keep, kept);
+  std::set<ImagePair> rejected_kept;
+  for (const RejectedTrustedEdge& r : kept.rejected) {
+    EXPECT_GT(rank_of.at(r.pair), lowest);
+    rejected_kept.insert(r.pair);
+  }
+  size_t spared = 0;
+  for (const RejectedTrustedEdge& r : judged.rejected) {
+    if (rank_of.at(r.pair) <= lowest) {
+      EXPECT_FALSE(rejected_kept.count(r.pair));
+      ++spared;
+    }
+  }
+  EXPECT_GE(spared, 1u);
+}
+
 TEST(VerifiedHierarchy, StricterThresholdsAndRoundLimits) {
   street_test::Opened street(1, 16);
   MultiViewVerifier verifier(street.db, street.graph);
   VerifiedHierarchyOptions options;
   options.trusted_edges.threshold = 0.8;
+  options.trusted_keep_rank = 0;
   const VerifiedHierarchy v =
       BuildVerifiedHierarchy(street.graph, verifier, HierarchyOptions(), options);
   ExpectVerifiedHierarchy(street.graph, verifier, options, v);
@@ -345,6 +403,7 @@ TEST(VerifiedHierarchyOptions, CheckRejectsOutOfRangeValues) {
   expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_edges.threshold = -0.1; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_edges.threshold = 1.1; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_edges = -1; });
+  expect_throw([](VerifiedHierarchyOptions& o) { o.trusted_keep_rank = -1; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_threshold = -0.5; });
   expect_throw([](VerifiedHierarchyOptions& o) { o.support_threshold = 2; });
   // The boundaries are valid.
