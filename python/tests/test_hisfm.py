@@ -41,13 +41,18 @@ def test_view_graph_matches_the_command(scene):
     assert graph["num_communities"] == expected["num_communities"] > 1
 
     for key in ("skeleton_bridges", "rejected_bridges", "skeleton_intra_edges",
-                "leaf_edges"):
+                "leaf_edges", "support_edges", "rejected_trusted_edges"):
         pairs = graph[key]["pairs"]
         assert pairs.ndim == 2 and pairs.shape == (len(expected[key]), 2), key
         assert pairs.tolist() == [[e["image_id1"], e["image_id2"]]
                                   for e in expected[key]], key
         assert np.isin(pairs, ids).all()
         assert graph[key]["inliers"].tolist() == [e["inliers"] for e in expected[key]]
+    trusted = graph["rejected_trusted_edges"]
+    assert trusted["scores"].tolist() == [
+        e["score"] for e in expected["rejected_trusted_edges"]]
+    assert trusted["rounds"].tolist() == [
+        e["round"] for e in expected["rejected_trusted_edges"]]
     bridges = graph["skeleton_bridges"]
     assert bridges["communities"].shape == bridges["pairs"].shape
     assert len(bridges["roles"]) == len(bridges["scores"]) == bridges["pairs"].shape[0]

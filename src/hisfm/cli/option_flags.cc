@@ -95,9 +95,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "most");
   visit("--HiSfM.trusted_keep_rank",
         o->verifier.verified_hierarchy.trusted_keep_rank,
-        "builtin verifier: a trusted edge among the this many strongest "
-        "pairs of both its images is kept whatever its score (0: every one "
-        "is judged)");
+        "builtin verifier: a trusted edge among that many strongest pairs "
+        "of both its images is kept whatever its score (0: every one is "
+        "judged)");
   visit("--HiSfM.judge_trusted_edges", o->verifier.judge_trusted_edges,
         "Verifiers other than builtin (which always does): score the "
         "trusted edges too, not only the bridges");

@@ -53,7 +53,8 @@ struct JudgedHierarchy {
   std::vector<RejectedTrustedEdge> rejected;
   /// Build rounds.
   int rounds = 0;
-  /// Trusted edges below the threshold kept after the last round.
+  /// Trusted edges below the threshold kept after the last round (not
+  /// counting those whose score does not speak: ScoreSpeaks).
   size_t num_unresolved = 0;
   /// Trusted edges scored over all rounds (distinct pairs).
   size_t num_scored = 0;

@@ -92,6 +92,27 @@ py::dict EdgeColumns(const nlohmann::json& edges) {
   return out;
 }
 
+// The rejected trusted edges of a view_graph JSON as columns: `pairs` an
+// (E, 2) array of image ids, `inliers`, `scores` and `rounds` arrays.
+py::dict TrustedEdgeColumns(const nlohmann::json& edges) {
+  std::vector<uint32_t> pairs, inliers;
+  std::vector<double> scores;
+  std::vector<int64_t> rounds;
+  for (const nlohmann::json& e : edges) {
+    pairs.push_back(e.at("image_id1").get<uint32_t>());
+    pairs.push_back(e.at("image_id2").get<uint32_t>());
+    inliers.push_back(e.at("inliers").get<uint32_t>());
+    scores.push_back(NumberOrNaN(e.at("score")));
+    rounds.push_back(e.at("round").get<int64_t>());
+  }
+  py::dict out;
+  out["pairs"] = Array(pairs, 2);
+  out["inliers"] = Array(inliers);
+  out["scores"] = Array(scores);
+  out["rounds"] = Array(rounds);
+  return out;
+}
+
 // Converts the `per_image` lists of an evaluation in place.
 void PerImageArrays(py::dict evaluation) {
   if (!evaluation.contains("per_image")) return;
@@ -184,8 +205,11 @@ py::dict ViewGraphToPython(const nlohmann::json& view_graph) {
       out["skeletal"] =
           HaveNumpy() ? array.attr("astype")(py::str("bool")) : array;
     } else if (key == "skeleton_bridges" || key == "rejected_bridges" ||
-               key == "skeleton_intra_edges" || key == "leaf_edges") {
+               key == "skeleton_intra_edges" || key == "leaf_edges" ||
+               key == "support_edges") {
       out[py::str(key)] = EdgeColumns(item);
+    } else if (key == "rejected_trusted_edges") {
+      out[py::str(key)] = TrustedEdgeColumns(item);
     } else if (key == "isolated_images") {
       out[py::str(key)] = Array(item.get<std::vector<uint32_t>>());
     } else if (key == "components") {

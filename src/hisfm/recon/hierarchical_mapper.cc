@@ -732,7 +732,6 @@ std::string RefineModel(const ComponentRun& run, const ModelFolder& attached,
   return run.dir + "/refined";
 }
 
-// Writes the hierarchy as JSON (HierarchyToJson) to `path`.
 // The hierarchy as JSON (HierarchyToJson) with the trusted edges the
 // verifier rejected ("rejected_trusted_edges").
 nlohmann::json ViewGraphJson(const LoadedInput& in) {

@@ -28,17 +28,18 @@ struct VerifiedHierarchyOptions {
   /// the pose's support error).
   bool clean_inliers = true;
   /// A trusted edge whose mutual rank (MutualRanks in graph/view_graph.h,
-  /// in the graph the hierarchy is built on) is at most this is kept
-  /// whatever its score, as a pair the edge test could not judge is: it is
-  /// among the few strongest pairs of both its images. The test predicts
-  /// the points one image's ego model holds in the other image; on a street
-  /// of identical facades an ego model that took in a doppelganger
-  /// neighbour predicts points a true pair cannot match, and the test then
-  /// rejects true neighbours. On crossing_streets_1000_s3 (tuning half) the
-  /// test rejected 169 trusted edges, 105 of them with the true geometry;
-  /// of those of mutual rank 4 or less, 34 had the true geometry and 2 did
-  /// not (docs/decisions.md, eighteenth session). 0 judges every trusted
-  /// edge.
+  /// computed once on the graph given to BuildVerifiedHierarchy, before
+  /// any rejection) is at most this is kept whatever its score, as a pair
+  /// the edge test could not judge is: it is among the few strongest pairs
+  /// of both its images. The test predicts the points one image's ego
+  /// model holds in the other image; on a street of identical facades an
+  /// ego model that took in a doppelganger neighbour predicts points a
+  /// true pair cannot match, and the test then rejects true neighbours. On
+  /// crossing_streets_1000_s3 (tuning half) the test rejected 169 trusted
+  /// edges, 105 of them with the true geometry; of those of mutual rank 4
+  /// or less by inlier count, 34 had the true geometry and 2 did not
+  /// (docs/decisions.md, eighteenth session; the graph given here ranks by
+  /// burstiness weights by default). 0 judges every trusted edge.
   int trusted_keep_rank = 4;
   /// Each image's this many strongest pairs (in the graph the hierarchy is
   /// built on) that score at least support_threshold join the edges its
