@@ -68,6 +68,12 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "verify_threshold) that turn its cycle beyond "
         "max_cycle_rotation_deg outweigh it and those that agree with it "
         "(no effect when the two thresholds are equal, as by default)");
+  visit("--HiSfM.peer_vote_size", h.skeleton.peer_vote_size,
+        "Refuse a bridge joining two parts (beyond the rank tiers, scored "
+        "below redundant_threshold) when, of up to this many of the "
+        "heaviest bridges between them not rejected, those that turn its "
+        "cycle beyond max_cycle_rotation_deg outweigh it and those that "
+        "agree with it (stored two-view rotations, nothing scored; 0: off)");
   visit("--HiSfM.rank_tiers", h.skeleton.rank_tiers,
         "Trees take bridges by neighbour rank tiers 1..N before weight "
         "(0: by weight, as Algorithm 1)");

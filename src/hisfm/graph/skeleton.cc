@@ -45,6 +45,7 @@ void SkeletonOptions::Check() const {
                      max_cycle_rotation_deg >= 0.0 &&
                          max_cycle_rotation_deg <= 180.0,
                      "in [0.0, 180.0]");
+  HISFM_CHECK_OPTION(peer_vote_size, peer_vote_size >= 0, ">= 0");
   HISFM_CHECK_OPTION(rank_tiers, rank_tiers >= 0, ">= 0");
   HISFM_CHECK_OPTION(max_bridge_rank, max_bridge_rank >= 0, ">= 0");
 }
@@ -454,6 +455,13 @@ class SkeletonBuilder {
     in_skeleton_.assign(bridges_.size(), 0);
     cycle_error_.assign(bridges_.size(), -1.0);
     outvoted_.assign(bridges_.size(), 0);
+    if (options.peer_vote_size > 0) {
+      community_bridges_.resize(m_);
+      for (size_t k = 0; k < bridges_.size(); ++k) {
+        community_bridges_[bridges_[k].c1].push_back(k);
+        community_bridges_[bridges_[k].c2].push_back(k);
+      }
+    }
     cache_ = std::make_unique<ScoreCache>(bridges_, scorer, &skeleton_);
   }
 
@@ -522,20 +530,26 @@ class SkeletonBuilder {
   // The images of a shortest path from `a` to `b` over the edges held;
   // empty if there is none.
   std::vector<ImageId> HeldPath(ImageId a, ImageId b) const;
-  // Whether the near misses between the two parts bridge k joins outvote
-  // it (SkeletonOptions::near_miss_vote); `worst` gets the largest
-  // rotation error of a cycle it closes with one of them (-1: none).
+  // Whether the near misses and peers between the two parts bridge k joins
+  // outvote it (SkeletonOptions::near_miss_vote, peer_vote_size); `worst`
+  // gets the largest rotation error of a cycle it closes with one of them
+  // (-1: none).
   bool Outvoted(size_t k, double* worst);
+  // Up to SkeletonOptions::peer_vote_size of the heaviest bridges other
+  // than k between the parts `part1` and `part2` (held_communities_ roots)
+  // that are neither rejected nor taken.
+  std::vector<size_t> Peers(size_t k, size_t part1, size_t part2);
   // Whether bridge k may be taken: its score reaches
   // SkeletonOptions::ThresholdFor(role, tree_) and the cycle it closes with
   // the skeleton, if any, is rotation consistent. Records a rejection with
   // `role`. A redundant bridge that would need a new score once the
   // redundancy budget is spent is refused without being scored or recorded.
   bool Admit(size_t k, BridgeRole role);
-  // Whether SkeletonOptions::near_miss_vote applies.
-  bool NearMissVoteOn() const {
-    return options_.near_miss_vote && options_.max_cycle_rotation_deg > 0 &&
-           scorer_ != nullptr;
+  // Whether a bridge between parts held apart is put to a vote
+  // (SkeletonOptions::near_miss_vote, peer_vote_size).
+  bool VoteOn() const {
+    return (options_.near_miss_vote || options_.peer_vote_size > 0) &&
+           options_.max_cycle_rotation_deg > 0 && scorer_ != nullptr;
   }
   // New verifications the first tree may still ask for
   // (SkeletonOptions::first_tree_budget_trees).
@@ -574,8 +588,12 @@ class SkeletonBuilder {
   // [fallback_threshold, verify_threshold) (SkeletonOptions::
   // near_miss_vote), in the order they were met.
   std::vector<size_t> near_misses_;
-  // Bridges their near misses outvoted (not taken by the fallback either).
+  // Bridges the vote refused (the fallback takes them only as a last
+  // resort).
   std::vector<char> outvoted_;
+  // Each community's bridges, in weight order (SkeletonOptions::
+  // peer_vote_size).
+  std::vector<std::vector<size_t>> community_bridges_;
   // The tree PackTrees is packing (0-based).
   int tree_ = 0;
   // Pairs verified when the first tree was done, and how many more the
@@ -622,6 +640,49 @@ std::vector<ImageId> SkeletonBuilder::HeldPath(ImageId a, ImageId b) const {
   return PathFromRoot(HeldParents(a, b), a, b);
 }
 
+std::vector<size_t> SkeletonBuilder::Peers(size_t k, size_t part1,
+                                           size_t part2) {
+  const size_t want = static_cast<size_t>(options_.peer_vote_size);
+  // A bridge among the few strongest pairs of both its images (a rank
+  // tier), or scored as confidently as a redundant one must be, is not put
+  // to its peers.
+  const Bridge& b = bridges_[k];
+  if (want == 0 || part1 == part2 ||
+      (options_.rank_tiers > 0 &&
+       b.rank <= static_cast<uint32_t>(options_.rank_tiers)) ||
+      (cache_->Has(k) && cache_->Get(k) >= options_.redundant_threshold)) {
+    return {};
+  }
+  // The bridges of the smaller part's communities that end in the other.
+  std::vector<CommunityId> members1;
+  std::vector<CommunityId> members2;
+  for (CommunityId c = 0; c < m_; ++c) {
+    const size_t root = held_communities_.Find(c);
+    if (root == part1) members1.push_back(c);
+    if (root == part2) members2.push_back(c);
+  }
+  const bool first_smaller = members1.size() <= members2.size();
+  const std::vector<CommunityId>& smaller =
+      first_smaller ? members1 : members2;
+  const size_t other = first_smaller ? part2 : part1;
+  std::vector<size_t> peers;
+  for (const CommunityId c : smaller) {
+    for (const size_t j : community_bridges_[c]) {
+      if (j == k || rejected_seen_[j] || in_skeleton_[j] || outvoted_[j]) {
+        continue;
+      }
+      const Bridge& n = bridges_[j];
+      const CommunityId far = n.c1 == c ? n.c2 : n.c1;
+      if (held_communities_.Find(far) == other) peers.push_back(j);
+    }
+  }
+  // The heaviest (bridges_ is in weight order).
+  const size_t keep = std::min(want, peers.size());
+  std::partial_sort(peers.begin(), peers.begin() + keep, peers.end());
+  peers.resize(keep);
+  return peers;
+}
+
 bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
   *worst = -1.0;
   const Bridge& b = bridges_[k];
@@ -642,21 +703,31 @@ bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
   };
   std::vector<Oriented> between;
   uint64_t undecided = 0;
-  for (const size_t j : near_misses_) {
+  const size_t part1 = held_communities_.Find(b.c1);
+  const size_t part2 = held_communities_.Find(b.c2);
+  // Adds bridge j if it joins the same two parts; returns whether it does.
+  auto add_if_between = [&](size_t j) {
     const Bridge& n = bridges_[j];
-    if (j == k) continue;
-    if (held_communities_.Connected(n.c1, b.c1) &&
-        held_communities_.Connected(n.c2, b.c2)) {
+    const size_t n1 = held_communities_.Find(n.c1);
+    const size_t n2 = held_communities_.Find(n.c2);
+    if (n1 == part1 && n2 == part2) {
       between.push_back({j, n.pair.image_id1, n.pair.image_id2});
-    } else if (held_communities_.Connected(n.c2, b.c1) &&
-               held_communities_.Connected(n.c1, b.c2)) {
+    } else if (n1 == part2 && n2 == part1) {
       between.push_back({j, n.pair.image_id2, n.pair.image_id1});
     } else {
-      continue;
+      return false;
     }
     undecided += n.weight;
+    return true;
+  };
+  if (options_.near_miss_vote) {
+    for (const size_t j : near_misses_) {
+      if (j != k) add_if_between(j);
+    }
   }
-  if (between.empty()) return false;
+  for (const size_t j : Peers(k, part1, part2)) add_if_between(j);
+  // Nothing to decide if the voters together cannot outweigh the bridge.
+  if (between.empty() || b.weight >= undecided) return false;
   std::stable_sort(between.begin(), between.end(),
                    [&](const Oriented& u, const Oriented& v) {
                      return bridges_[u.j].weight > bridges_[v.j].weight;
@@ -668,7 +739,7 @@ bool SkeletonBuilder::Outvoted(size_t k, double* worst) {
   uint64_t support = b.weight;
   uint64_t against = 0;
   for (const Oriented& o : between) {
-    // Stop once the near misses left cannot change the outcome.
+    // Stop once the voters left cannot change the outcome.
     if (against > support + undecided || support >= against + undecided) {
       break;
     }
@@ -735,9 +806,10 @@ bool SkeletonBuilder::Admit(size_t k, BridgeRole role) {
     Reject(k, score, role, cycle_error_[k]);
     return false;
   }
-  // A bridge between parts held apart: its near misses may outvote it.
+  // A bridge between parts held apart: its near misses and peers may
+  // outvote it.
   double worst = -1.0;
-  if (NearMissVoteOn() &&
+  if (VoteOn() &&
       !held_communities_.Connected(bridges_[k].c1, bridges_[k].c2) &&
       Outvoted(k, &worst)) {
     outvoted_[k] = 1;
@@ -957,16 +1029,16 @@ size_t SkeletonBuilder::JoinThroughNearMisses(UnionFind* uf,
     const Bridge& b = bridges_[k];
     if (uf->Connected(b.c1, b.c2) || outvoted_[k]) continue;
     double worst = -1.0;
-    if (NearMissVoteOn() && Outvoted(k, &worst)) {
+    if (VoteOn() && Outvoted(k, &worst)) {
       outvoted_[k] = 1;
       ++skeleton_.num_outvoted;
       continue;
     }
     take(k);
   }
-  // Where the vote refused every candidate between two parts (the near
-  // misses disagree among themselves), the best-scoring one still joins
-  // them: one model rather than pieces.
+  // Where the vote refused every candidate between two parts (the voters
+  // disagree among themselves, or failed verification since), the
+  // best-scoring one still joins them: one model rather than pieces.
   if (last_resort) {
     for (const size_t k : scored) {
       if (!uf->Connected(bridges_[k].c1, bridges_[k].c2)) take(k);
@@ -976,7 +1048,13 @@ size_t SkeletonBuilder::JoinThroughNearMisses(UnionFind* uf,
 }
 
 void SkeletonBuilder::AddFallbackBridges() {
-  if (options_.fallback_threshold >= options_.verify_threshold) return;
+  // Without a fallback, only bridges that passed tau and were refused by
+  // the vote can be candidates (their voters may have failed verification
+  // since): they still join parts left apart, as a last resort.
+  if (options_.fallback_threshold >= options_.verify_threshold &&
+      skeleton_.num_outvoted == 0) {
+    return;
+  }
   // The parts the bridges taken so far hold together (Take unions each).
   UnionFind uf = held_communities_;
   JoinThroughNearMisses(&uf, /*last_resort=*/true);

@@ -47,6 +47,11 @@
 // the near misses join what they can and the tree goes on at the fallback
 // threshold.
 //
+// A seventh: a bridge beyond the rank tiers that joins two parts held
+// apart with a score below the redundant threshold is refused when the
+// heaviest bridges between the same parts, scored or not, outweigh it and
+// disagree with it in rotation (SkeletonOptions::peer_vote_size).
+//
 // Kruskal is kept exact within that order (a deferral rule that was tried
 // verified more bridges, not fewer: docs/decisions.md).
 #pragma once
@@ -170,6 +175,29 @@ struct SkeletonOptions {
   /// would join the parts through a doppelganger alone. Needs a scorer that
   /// reports rotations, and max_cycle_rotation_deg > 0.
   bool near_miss_vote = true;
+  /// A bridge that joins two parts held apart (as for near_miss_vote), beyond
+  /// the rank tiers (rank > rank_tiers) and scored below redundant_threshold,
+  /// is also checked against up to this many of the heaviest other bridges
+  /// between the same two parts that nothing has rejected (not yet scored, or
+  /// scored and passed): they vote as near misses do, by weight, through the
+  /// rotation of the cycle each closes with it. No pair is scored for it: the
+  /// rotations are the pairs' stored two-view geometry. 0 turns it off; 8 was
+  /// set before measuring and not tuned (docs/decisions.md, nineteenth
+  /// session). An addition to Algorithm 1, whose first tree closes no cycle and
+  /// so has no loop check: where two streets cross, a doppelganger between
+  /// their facades can be the first bridge the tree meets between them while
+  /// the true pairs at the crossing, which turn its cycle by the angle between
+  /// the streets, outweigh it together. Bridges among the few strongest pairs
+  /// of both their images, or scored confidently, are not put to the vote:
+  /// around a block or a symmetric object the doppelgangers between two parts
+  /// can outweigh the true pairs (docs/decisions.md, nineteenth session). With
+  /// rank_tiers 0 no bridge is exempt for its rank (every bridge put to the
+  /// vote was measured worse). Redundant bridges need redundant_threshold, so
+  /// in effect only the first tree's and the fallback's meet their peers. A
+  /// bridge refused by the vote that passed tau still joins parts nothing else
+  /// joins, as the fallback's last resort (even when there is no fallback).
+  /// Needs a scorer that reports rotations, and max_cycle_rotation_deg > 0.
+  int peer_vote_size = 8;
   /// Trees meet bridges by neighbour rank before weight: a bridge's rank is
   /// the larger, over its two images, of its place among that image's
   /// verified pairs by weight (1 = the strongest). Bridges of rank r <=
@@ -235,9 +263,10 @@ struct BridgeRecord {
   /// skeleton when it was considered; negative if it closed none or the
   /// scorer could not tell.
   double cycle_error_deg = -1.0;
-  /// Refused by the near misses between the parts it joins
-  /// (SkeletonOptions::near_miss_vote) though its score passed; its
-  /// cycle_error_deg is then the largest of the cycles it closed with them.
+  /// Refused by the near misses or peers between the parts it joins
+  /// (SkeletonOptions::near_miss_vote, peer_vote_size) though its score
+  /// passed; its cycle_error_deg is then the largest of the cycles it closed
+  /// with them.
   bool outvoted = false;
 };
 
@@ -256,9 +285,10 @@ struct Skeleton {
   size_t num_candidate_bridges = 0;
   /// Candidate bridges left out by SkeletonOptions::max_bridge_rank.
   size_t num_rank_excluded = 0;
-  /// Bridges the near-miss vote refused (SkeletonOptions::near_miss_vote),
-  /// in the trees (in `rejected`, marked `outvoted`) or in the fallback
-  /// (near misses themselves, in `rejected` for their score).
+  /// Bridges the near-miss or peer vote refused (SkeletonOptions::
+  /// near_miss_vote, peer_vote_size), in the trees (in `rejected`, marked
+  /// `outvoted`) or in the fallback (near misses themselves, in `rejected`
+  /// for their score).
   size_t num_outvoted = 0;
   /// Number of pairs scored by the verifier (each at most once).
   size_t num_verified = 0;

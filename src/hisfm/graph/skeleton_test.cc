@@ -1369,6 +1369,162 @@ TEST(SkeletonNearMisses, NoNearMissesAtTheDefaultThresholds) {
   EXPECT_TRUE(scorer.cycles.empty());
 }
 
+// NearMissGraph with the chords 1-3 and 4-6 inside the communities, so that
+// every bridge is the third pair of both its images (rank 3), and the
+// bridges' weights given: 3-4, 1-6 and 2-5, the doppelganger.
+ViewGraph PeerGraph(uint32_t w34, uint32_t w16, uint32_t w25) {
+  return ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+       {ImagePair(1, 3), 990}, {ImagePair(4, 6), 995},
+       {ImagePair(3, 4), w34}, {ImagePair(1, 6), w16},
+       {ImagePair(2, 5), w25}});
+}
+
+// Default thresholds (no near misses), peers on, rank tiers 1 and 2 only:
+// the bridges of PeerGraph (rank 3) meet the tree by weight and are put to
+// their peers.
+SkeletonOptions PeerVote(int size) {
+  SkeletonOptions options;
+  options.rank_tiers = 2;
+  options.peer_vote_size = size;
+  return options;
+}
+
+// 2-5 scores 0.6 (above tau, below the redundant threshold) and turns every
+// cycle it is on by 180 degrees.
+CycleScorer PeerScorer() {
+  CycleScorer scorer;
+  scorer.middling = {ImagePair(2, 5)};
+  scorer.folded = {ImagePair(2, 5)};
+  return scorer;
+}
+
+TEST(SkeletonPeerVote, HeavierPeersOutvoteTheFirstBridgeBetweenTwoParts) {
+  // The first tree meets 2-5 (400) first; its unscored peers 3-4 and 1-6
+  // (580 together) disagree with it.
+  const ViewGraph g = PeerGraph(300, 280, 400);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  CycleScorer scorer = PeerScorer();
+  scorer.graph = &g;
+  const Skeleton s = BuildSkeleton(g, c, &scorer, PeerVote(8));
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(3, 4)});
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kTree);
+  EXPECT_EQ(s.bridges[0].rank, 3u);
+  EXPECT_EQ(s.num_outvoted, 1u);
+  ASSERT_EQ(s.rejected.size(), 1u);
+  EXPECT_EQ(s.rejected[0].pair, ImagePair(2, 5));
+  EXPECT_TRUE(s.rejected[0].outvoted);
+  EXPECT_DOUBLE_EQ(s.rejected[0].score, 0.6);
+  EXPECT_EQ(s.rejected[0].cycle_error_deg, 180.0);
+  // The peers were not scored: 2-5 and 3-4 only.
+  EXPECT_EQ(s.num_verified, 2u);
+
+  // Off, the tree takes the doppelganger.
+  CycleScorer off = PeerScorer();
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &off, PeerVote(0))),
+            std::set<ImagePair>{ImagePair(2, 5)});
+}
+
+TEST(SkeletonPeerVote, StrongOrConfidentBridgesAreNotPutToTheirPeers) {
+  const ViewGraph g = PeerGraph(300, 280, 400);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  // In a rank tier (rank 3 <= 4).
+  SkeletonOptions tiers = PeerVote(8);
+  tiers.rank_tiers = 4;
+  CycleScorer a = PeerScorer();
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &a, tiers)),
+            std::set<ImagePair>{ImagePair(2, 5)});
+  // Scored at the redundant threshold or above.
+  CycleScorer b = PeerScorer();
+  b.exact = {{ImagePair(2, 5), 0.8}};
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &b, PeerVote(8))),
+            std::set<ImagePair>{ImagePair(2, 5)});
+}
+
+TEST(SkeletonPeerVote, LighterOrFewerPeersDoNotOutvote) {
+  // 2-5 at 600 outweighs its two peers (580).
+  const ViewGraph heavy = PeerGraph(300, 280, 600);
+  const Communities heavy_c = ComputeCommunities(heavy, CommunityOptions());
+  CycleScorer a = PeerScorer();
+  EXPECT_EQ(TakenPairs(BuildSkeleton(heavy, heavy_c, &a, PeerVote(8))),
+            std::set<ImagePair>{ImagePair(2, 5)});
+  // At 400 it outweighs the heaviest peer alone (3-4, 300).
+  const ViewGraph g = PeerGraph(300, 280, 400);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  CycleScorer b = PeerScorer();
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &b, PeerVote(1))),
+            std::set<ImagePair>{ImagePair(2, 5)});
+  // A scorer that reports no rotations cannot vote.
+  CycleScorer blind = PeerScorer();
+  blind.knows_rotations = false;
+  EXPECT_EQ(TakenPairs(BuildSkeleton(g, c, &blind, PeerVote(8))),
+            std::set<ImagePair>{ImagePair(2, 5)});
+}
+
+TEST(SkeletonPeerVote, BridgesRejectedForTheirScoreDoNotVote) {
+  // The heaviest bridge, 3-4 (900), turns every cycle by 180 degrees and
+  // the verifier rejects it. The tree then meets 1-6 (400, scoring 0.6),
+  // whose one peer left, 2-5 (280), agrees: 3-4 would outvote 1-6 if it
+  // still voted.
+  const ViewGraph g = PeerGraph(900, 400, 280);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  CycleScorer scorer;
+  scorer.folded = {ImagePair(3, 4)};
+  scorer.weak = {ImagePair(3, 4)};
+  scorer.middling = {ImagePair(1, 6)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, PeerVote(8));
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(1, 6)});
+  EXPECT_EQ(s.num_outvoted, 0u);
+}
+
+TEST(SkeletonPeerVote, OnlyTheHeaviestPeersVote) {
+  // 2-5 (400) against 3-4 (300) and 1-6 (280), which disagree with it, and
+  // a third peer 2-6 (250), which agrees (its cycle through 2-5 closes).
+  // Two voters: the two heaviest outvote it (580 against 400); were 2-6
+  // one of them, they would not (300 or 280 against 400 + 250).
+  const ViewGraph g = ViewGraph::FromEdges(
+      {1, 2, 3, 4, 5, 6},
+      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+       {ImagePair(1, 3), 990}, {ImagePair(4, 6), 995},
+       {ImagePair(3, 4), 300}, {ImagePair(1, 6), 280},
+       {ImagePair(2, 5), 400}, {ImagePair(2, 6), 250}});
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  ASSERT_EQ(c.NumCommunities(), 2u);
+  CycleScorer scorer = PeerScorer();
+  scorer.folded = {ImagePair(3, 4), ImagePair(1, 6)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, PeerVote(2));
+  EXPECT_EQ(s.num_outvoted, 1u);
+  EXPECT_EQ(TakenPairs(s), std::set<ImagePair>{ImagePair(3, 4)});
+}
+
+TEST(SkeletonPeerVote, ARefusedBridgeJoinsWhatItsVotersCouldNot) {
+  // 2-5 (400, true) is outvoted by 3-4 and 1-6, which turn its cycles and
+  // then fail verification: nothing else joins the two communities, so
+  // 2-5 does, as the last resort, though there is no fallback.
+  const ViewGraph g = PeerGraph(300, 280, 400);
+  const Communities c = ComputeCommunities(g, CommunityOptions());
+  CycleScorer scorer;
+  scorer.middling = {ImagePair(2, 5)};
+  scorer.folded = {ImagePair(3, 4), ImagePair(1, 6)};
+  scorer.weak = {ImagePair(3, 4), ImagePair(1, 6)};
+  const Skeleton s = BuildSkeleton(g, c, &scorer, PeerVote(8));
+  EXPECT_EQ(s.num_outvoted, 1u);
+  ASSERT_EQ(s.bridges.size(), 1u);
+  EXPECT_EQ(s.bridges[0].pair, ImagePair(2, 5));
+  EXPECT_EQ(s.bridges[0].role, BridgeRole::kFallback);
+}
+
+TEST(SkeletonPeerVote, NegativeSizeIsRejected) {
+  SkeletonOptions options;
+  options.peer_vote_size = -1;
+  EXPECT_THROW(options.Check(), Error);
+}
+
 // Scores every bridge 0.9 and reports the consistent share of each pair from
 // a table (1 if absent), recording the pairs it was asked about.
 class ShareScorer : public BridgeScorer {

@@ -106,4 +106,15 @@ std::vector<uint32_t> MutualRanks(const ViewGraph& graph) {
   return ranks;
 }
 
+std::set<ImagePair> PairsOfMutualRankAtMost(const ViewGraph& graph,
+                                            uint32_t max_rank) {
+  std::set<ImagePair> pairs;
+  if (max_rank == 0) return pairs;
+  const std::vector<uint32_t> ranks = MutualRanks(graph);
+  for (size_t e = 0; e < ranks.size(); ++e) {
+    if (ranks[e] <= max_rank) pairs.insert(graph.Edges()[e].pair);
+  }
+  return pairs;
+}
+
 }  // namespace hisfm

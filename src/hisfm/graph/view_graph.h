@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -77,5 +78,11 @@ std::vector<size_t> StrongestEdges(const ViewGraph& graph, size_t index,
 /// is among the r strongest pairs of both its images (mutual r-nearest
 /// neighbours).
 std::vector<uint32_t> MutualRanks(const ViewGraph& graph);
+
+/// The pairs of the edges of mutual rank at most `max_rank` (MutualRanks):
+/// each among the `max_rank` strongest pairs of both its images. Empty for
+/// `max_rank` 0.
+std::set<ImagePair> PairsOfMutualRankAtMost(const ViewGraph& graph,
+                                            uint32_t max_rank);
 
 }  // namespace hisfm

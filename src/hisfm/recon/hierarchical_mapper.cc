@@ -204,7 +204,6 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
     in.reserve_edges = std::move(verified.reserve_edges);
-    in.rejected_trusted_edges = verified.rejected;
     in.verification = {{"rounds", verified.rounds},
                     {"rejected_trusted_edges", verified.rejected.size()},
                     {"unresolved_trusted_edges", verified.num_unresolved},
@@ -217,6 +216,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
         "edges",
         verifier.NumEvaluated(), verified.rejected.size(), verified.rounds,
         verified.num_inliers_after, verified.num_inliers_before);
+    in.rejected_trusted_edges = std::move(verified.rejected);
   } else {
     // A verifier that does not read the communities is created once and
     // lent to every build (a scores file is parsed once).
@@ -278,7 +278,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   const Hierarchy& h = in.hierarchy;
   HISFM_LOG_INFO(
       "{} communities, {} candidate bridges, K = {}, {} bridges taken, {} "
-      "rejected, {} refused by the near-miss vote, {} verified by '{}' "
+      "rejected, {} refused by the near-miss or peer vote, {} verified by '{}' "
       "({} for the first tree)",
       h.communities.NumCommunities(), h.skeleton.num_candidate_bridges,
       h.skeleton.num_trees, h.skeleton.bridges.size(),

@@ -17,9 +17,9 @@ namespace hisfm {
 /// A bridge's "score" is null if it was rejected by its cycle before being
 /// scored; "cycle_error_deg" is present where a cycle was checked
 /// (SkeletonOptions::max_cycle_rotation_deg); "outvoted": true marks a
-/// rejected bridge the near misses refused though its score passed
-/// (SkeletonOptions::near_miss_vote; its cycle_error_deg is then the largest
-/// cycle it closed with them).
+/// rejected bridge the near misses or peers refused though its score passed
+/// (SkeletonOptions::near_miss_vote, peer_vote_size; its cycle_error_deg is
+/// then the largest cycle it closed with them).
 /// `image_names` maps ids to names (may be empty).
 nlohmann::json HierarchyToJson(
     const Hierarchy& hierarchy, const ViewGraph& graph,

@@ -97,15 +97,8 @@ VerifiedHierarchy BuildVerifiedHierarchy(
   options.Check();
   // The pairs among the few strongest of both their images
   // (VerifiedHierarchyOptions::trusted_keep_rank).
-  std::set<ImagePair> kept_by_rank;
-  if (options.trusted_keep_rank > 0) {
-    const std::vector<uint32_t> ranks = MutualRanks(graph);
-    for (size_t e = 0; e < ranks.size(); ++e) {
-      if (ranks[e] <= static_cast<uint32_t>(options.trusted_keep_rank)) {
-        kept_by_rank.insert(graph.Edges()[e].pair);
-      }
-    }
-  }
+  const std::set<ImagePair> kept_by_rank = PairsOfMutualRankAtMost(
+      graph, static_cast<uint32_t>(options.trusted_keep_rank));
   VerifiedHierarchy out;
   static_cast<JudgedHierarchy&>(out) = BuildHierarchyJudgingTrustedEdges(
       graph,

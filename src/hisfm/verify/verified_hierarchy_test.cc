@@ -51,13 +51,8 @@ void ExpectVerifiedHierarchy(const ViewGraph& input,
   }
   // Trusted edges left below the threshold are counted as unresolved,
   // except those kept for their mutual rank (trusted_keep_rank).
-  const std::vector<uint32_t> ranks = MutualRanks(input);
-  std::set<ImagePair> kept_by_rank;
-  for (size_t e = 0; e < ranks.size(); ++e) {
-    if (ranks[e] <= static_cast<uint32_t>(options.trusted_keep_rank)) {
-      kept_by_rank.insert(input.Edges()[e].pair);
-    }
-  }
+  const std::set<ImagePair> kept_by_rank = PairsOfMutualRankAtMost(
+      input, static_cast<uint32_t>(options.trusted_keep_rank));
   size_t failing = 0;
   for (const ImagePair& p : TrustedEdges(v.hierarchy)) {
     EXPECT_GT(v.graph.Weight(p.image_id1, p.image_id2), 0u);
