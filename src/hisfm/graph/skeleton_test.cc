@@ -1371,15 +1371,18 @@ TEST(SkeletonNearMisses, NoNearMissesAtTheDefaultThresholds) {
 
 // NearMissGraph with the chords 1-3 and 4-6 inside the communities, so that
 // every bridge is the third pair of both its images (rank 3), and the
-// bridges' weights given: 3-4, 1-6 and 2-5, the doppelganger.
-ViewGraph PeerGraph(uint32_t w34, uint32_t w16, uint32_t w25) {
-  return ViewGraph::FromEdges(
-      {1, 2, 3, 4, 5, 6},
-      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
-       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
-       {ImagePair(1, 3), 990}, {ImagePair(4, 6), 995},
-       {ImagePair(3, 4), w34}, {ImagePair(1, 6), w16},
-       {ImagePair(2, 5), w25}});
+// bridges' weights given: 3-4, 1-6 and 2-5, the doppelganger; plus
+// `extra` edges.
+ViewGraph PeerGraph(uint32_t w34, uint32_t w16, uint32_t w25,
+                    const std::vector<ViewGraphEdge>& extra = {}) {
+  std::vector<ViewGraphEdge> edges = {
+      {ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
+      {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
+      {ImagePair(1, 3), 990},  {ImagePair(4, 6), 995},
+      {ImagePair(3, 4), w34},  {ImagePair(1, 6), w16},
+      {ImagePair(2, 5), w25}};
+  edges.insert(edges.end(), extra.begin(), extra.end());
+  return ViewGraph::FromEdges({1, 2, 3, 4, 5, 6}, edges);
 }
 
 // Default thresholds (no near misses), peers on, rank tiers 1 and 2 only:
@@ -1486,13 +1489,7 @@ TEST(SkeletonPeerVote, OnlyTheHeaviestPeersVote) {
   // a third peer 2-6 (250), which agrees (its cycle through 2-5 closes).
   // Two voters: the two heaviest outvote it (580 against 400); were 2-6
   // one of them, they would not (300 or 280 against 400 + 250).
-  const ViewGraph g = ViewGraph::FromEdges(
-      {1, 2, 3, 4, 5, 6},
-      {{ImagePair(1, 2), 1000}, {ImagePair(2, 3), 1010},
-       {ImagePair(4, 5), 1020}, {ImagePair(5, 6), 1030},
-       {ImagePair(1, 3), 990}, {ImagePair(4, 6), 995},
-       {ImagePair(3, 4), 300}, {ImagePair(1, 6), 280},
-       {ImagePair(2, 5), 400}, {ImagePair(2, 6), 250}});
+  const ViewGraph g = PeerGraph(300, 280, 400, {{ImagePair(2, 6), 250}});
   const Communities c = ComputeCommunities(g, CommunityOptions());
   ASSERT_EQ(c.NumCommunities(), 2u);
   CycleScorer scorer = PeerScorer();
