@@ -29,9 +29,14 @@ echo "==> Test suite under ASan/UBSan"
 # Except the end-to-end runs on the shared real scenes (feature extraction,
 # matching, verification of every pair and mapping of real photos; 5 to 15
 # minutes each under the sanitizers): scripts/test.sh runs them, and the code
-# of hisfm they reach runs here in the synthetic pipeline tests.
+# of hisfm they reach runs here in the synthetic pipeline tests. Likewise two
+# synthetic end-to-end tests, 10 and 5 minutes each here: the merging and
+# re-seeding of MergesSubModelsAndReseedsWhatTheAttachLeaves (150 images) run
+# here in ReseededModelsAreJoinedOrWrittenApart, and the plug-in judging
+# trusted edges (PlugInVerifierJudgesTheTrustedEdges, two mapper runs) in
+# PlugInVerifierScoresSupportEdges.
 ctest --output-on-failure -j2 --timeout 1800 -LE fuzz \
-  -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrect(WhereColmapFolds|AtThePapersTau)|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
+  -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrect(WhereColmapFolds|AtThePapersTau)|HierarchicalMapper\.(MergesSubModelsAndReseedsWhatTheAttachLeaves|PlugInVerifierJudgesTheTrustedEdges)|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
 tested=$(date +%s)
 
 echo "==> Fuzzing, ${FUZZ_SECONDS} s per target"
