@@ -1,6 +1,7 @@
 // Measures the built-in verifier's evidence on labelled image pairs and
 // reports how well each cue separates true pairs from doppelgangers (AUC).
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <algorithm>
 #include <fstream>
 #include <iostream>
@@ -42,10 +43,17 @@ int main(int argc, char** argv) {
   CLI::App app("Built-in verifier evidence on labelled pairs");
   std::string database_path, labels_path, output_path;
   app.add_option("--database_path", database_path)->required();
-  app.add_option("--labels", labels_path,
-                 "Lines 'id1 id2 label' (1 true, 0 doppelganger, other: "
-                 "skipped)")
-      ->required();
+  std::string pair_labels_path, bridges_path;
+  auto* labels_option = app.add_option(
+      "--labels", labels_path,
+      "Lines 'id1 id2 label' (1 true, 0 doppelganger, other: skipped)");
+  app.add_option("--pair_labels", pair_labels_path,
+                 "A synthetic scene's pair_labels.txt instead: a pair is true "
+                 "if at least half its inliers are, a doppelganger if its "
+                 "doppelganger inliers outnumber the true ones")
+      ->excludes(labels_option);
+  app.add_option("--bridges_of", bridges_path,
+                 "A view_graph.json: only its bridges (skeleton and rejected)");
   app.add_option("--output", output_path, "TSV of every judged pair");
   std::string reference_path;
   app.add_option("--reference", reference_path,
@@ -54,6 +62,13 @@ int main(int argc, char** argv) {
   app.add_option("--max_scale_change", max_scale);
   app.add_option("--max_view_angle", max_angle);
   app.add_option("--radius", radius, "Keypoint radius (pixels)");
+  bool triplets_only = false;
+  app.add_flag("--triplets_only", triplets_only,
+               "Only the triplet translation cue (no edge test): TSV columns "
+               "id1 id2 label inliers triplet_err num_triplets rot_err dir_err");
+  int max_triplets = 10;
+  app.add_option("--max_triplets", max_triplets,
+                 "Third images per pair, strongest first");
   std::vector<ImageId> debug_pairs;
   app.add_option("--debug_pair", debug_pairs, "id1 id2: print its models");
   CLI11_PARSE(app, argc, argv);
@@ -61,11 +76,42 @@ int main(int argc, char** argv) {
   Database database(database_path);
   const ViewGraph graph = ReadViewGraph(database, 15);
   std::map<ImagePair, int> labels;
-  {
+  if (!labels_path.empty()) {
     std::ifstream in(labels_path);
     ImageId a, b;
     int l;
     while (in >> a >> b >> l) labels[ImagePair(a, b)] = l;
+  } else if (!pair_labels_path.empty()) {
+    std::map<std::string, ImageId> ids;
+    for (const DatabaseImage& im : database.ReadImages()) ids[im.name] = im.image_id;
+    std::ifstream in(pair_labels_path);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream fields(line);
+      std::string name1, name2;
+      size_t inliers = 0, num_true = 0, num_doppelganger = 0;
+      fields >> name1 >> name2 >> inliers >> num_true >> num_doppelganger;
+      labels[ImagePair(ids.at(name1), ids.at(name2))] =
+          2 * num_true >= inliers ? 1 : (num_doppelganger > num_true ? 0 : -1);
+    }
+  } else {
+    std::cerr << "error: --labels or --pair_labels is required\n";
+    return 1;
+  }
+  if (!bridges_path.empty()) {
+    std::ifstream in(bridges_path);
+    const nlohmann::json view_graph = nlohmann::json::parse(in);
+    std::set<ImagePair> bridges;
+    for (const char* list : {"skeleton_bridges", "rejected_bridges"}) {
+      for (const nlohmann::json& b : view_graph[list]) {
+        bridges.insert(ImagePair(b["image_id1"].get<ImageId>(),
+                                 b["image_id2"].get<ImageId>()));
+      }
+    }
+    for (auto it = labels.begin(); it != labels.end();) {
+      it = bridges.count(it->first) ? std::next(it) : labels.erase(it);
+    }
   }
   MultiViewVerifierOptions verifier_options;
   verifier_options.geometry.keypoint_radius_px = radius;
@@ -220,6 +266,97 @@ int main(int argc, char** argv) {
     }
     print_model(verifier.EgoModel(p.image_id1, p.image_id2));
     print_model(verifier.EgoModel(p.image_id2, p.image_id1));
+  }
+  // Direction from a's camera centre to b's, in a's frame, of the pair's
+  // best-supported pose hypothesis; false without one.
+  const auto direction = [&](ImageId a, ImageId b, Eigen::Vector3d* d,
+                             Eigen::Matrix3d* b_from_a_rotation) {
+    const ImagePair p(a, b);
+    const auto g = verifier.cache().Pair(p.image_id1, p.image_id2);
+    if (g->hypotheses.empty()) return false;
+    Rigid3d pose = g->hypotheses[0].cam2_from_cam1;
+    if (a != p.image_id1) pose = pose.Inverse();
+    const Eigen::Matrix3d R = pose.rotation.toRotationMatrix();
+    *d = -(R.transpose() * pose.translation).normalized();
+    if (b_from_a_rotation) *b_from_a_rotation = R;
+    return true;
+  };
+  // Angle (degrees) from d to the cone of non-negative combinations of u, w.
+  const auto cone_angle = [](const Eigen::Vector3d& d, const Eigen::Vector3d& u,
+                             const Eigen::Vector3d& w) {
+    const auto angle = [](const Eigen::Vector3d& x, const Eigen::Vector3d& y) {
+      return std::acos(std::clamp(x.normalized().dot(y.normalized()), -1.0,
+                                  1.0)) * 180.0 / M_PI;
+    };
+    double best = std::min(angle(d, u), angle(d, w));
+    if (u.cross(w).norm() > 1e-3) {
+      Eigen::Matrix<double, 3, 2> A;
+      A << u, w;
+      const Eigen::Vector2d x = A.colPivHouseholderQr().solve(d);
+      if (x(0) >= 0 && x(1) >= 0) best = std::min(best, angle(d, A * x));
+    }
+    return best;
+  };
+  // The pair (a, b)'s direction against the triangles it closes with third
+  // images c matched to both: c - a = s1 u and c - b = s3 v (u, v from the
+  // pairs (a, c), (b, c), v turned into a's frame by the pair's rotation)
+  // put b - a in the cone of u and -v. Median angle over the strongest
+  // triangles; -1 without any.
+  const auto triplet_error = [&](const ImagePair& p, int* count) {
+    const ImageId a = p.image_id1, b = p.image_id2;
+    Eigen::Vector3d d;
+    Eigen::Matrix3d R_ba;
+    *count = 0;
+    if (!direction(a, b, &d, &R_ba)) return -1.0;
+    std::vector<std::pair<uint32_t, ImageId>> thirds;
+    for (const size_t e : graph.IncidentEdges(graph.IndexOf(a))) {
+      const ImageId c = graph.OtherEnd(e, a);
+      if (c == b || graph.Weight(b, c) == 0) continue;
+      thirds.emplace_back(std::min(graph.Edges()[e].weight, graph.Weight(b, c)), c);
+    }
+    std::sort(thirds.rbegin(), thirds.rend());
+    if (thirds.size() > static_cast<size_t>(max_triplets)) thirds.resize(max_triplets);
+    std::vector<double> errors;
+    for (const auto& [w, c] : thirds) {
+      Eigen::Vector3d u, v;
+      if (!direction(a, c, &u, nullptr) || !direction(b, c, &v, nullptr)) continue;
+      errors.push_back(cone_angle(d, u, -(R_ba.transpose() * v)));
+    }
+    *count = static_cast<int>(errors.size());
+    if (errors.empty()) return -1.0;
+    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+    return errors[errors.size() / 2];
+  };
+  if (triplets_only) {
+    std::ofstream tout(output_path);
+    std::vector<double> tpos, tneg, gpos, gneg;
+    for (const ViewGraphEdge& e : graph.Edges()) {
+      auto it = labels.find(e.pair);
+      if (it == labels.end() || (it->second != 0 && it->second != 1)) continue;
+      int count = 0;
+      const double err = triplet_error(e.pair, &count);
+      double rot = -1, dir = -1;
+      const auto g = verifier.cache().Pair(e.pair.image_id1, e.pair.image_id2);
+      if (!reference.images.empty() && !g->hypotheses.empty()) {
+        pose_error(e.pair.image_id1, e.pair.image_id2,
+                   g->hypotheses[0].cam2_from_cam1, &rot, &dir);
+      }
+      if (err >= 0) (it->second ? tpos : tneg).push_back(-err);
+      // Right by pose: rotation within 5 degrees, direction within 10.
+      if (err >= 0 && rot >= 0) (rot < 5 && dir < 10 ? gpos : gneg).push_back(-err);
+      tout << e.pair.image_id1 << '\t' << e.pair.image_id2 << '\t'
+           << it->second << '\t' << e.weight << '\t' << err << '\t'
+           << count << '\t' << rot << '\t' << dir << '\n';
+    }
+    std::cout << "pairs with triangles: " << tpos.size() << " true, "
+              << tneg.size() << " false; AUC(-triplet_err) " << Auc(tpos, tneg)
+              << "\n";
+    if (!reference.images.empty()) {
+      std::cout << "by pose (rotation < 5 deg, direction < 10 deg): "
+                << gpos.size() << " right, " << gneg.size()
+                << " wrong; AUC(-triplet_err) " << Auc(gpos, gneg) << "\n";
+    }
+    return 0;
   }
   std::ofstream out;
   if (!output_path.empty()) {
