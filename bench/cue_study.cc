@@ -13,6 +13,7 @@
 #include "hisfm/graph/view_graph.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
+#include "hisfm/synth/synthetic_dataset.h"
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/multiview_verifier.h"
 #include "hisfm/verify/relative_pose.h"
@@ -84,16 +85,9 @@ int main(int argc, char** argv) {
   } else if (!pair_labels_path.empty()) {
     std::map<std::string, ImageId> ids;
     for (const DatabaseImage& im : database.ReadImages()) ids[im.name] = im.image_id;
-    std::ifstream in(pair_labels_path);
-    std::string line;
-    while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#') continue;
-      std::istringstream fields(line);
-      std::string name1, name2;
-      size_t inliers = 0, num_true = 0, num_doppelganger = 0;
-      fields >> name1 >> name2 >> inliers >> num_true >> num_doppelganger;
-      labels[ImagePair(ids.at(name1), ids.at(name2))] =
-          2 * num_true >= inliers ? 1 : (num_doppelganger > num_true ? 0 : -1);
+    for (const PairLabel& l : ReadPairLabels(pair_labels_path)) {
+      labels[ImagePair(ids.at(l.name1), ids.at(l.name2))] =
+          2 * l.num_true >= l.num_inliers ? 1 : (l.IsDoppelganger() ? 0 : -1);
     }
   } else {
     std::cerr << "error: --labels or --pair_labels is required\n";

@@ -7,7 +7,6 @@
 #include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_writer.h"
@@ -424,23 +423,13 @@ TEST(HierarchicalMapper, MergesSubModelsAndReseedsWhatTheAttachLeaves) {
   EXPECT_TRUE(e.correct) << e.verdict_reason;
 }
 
-// The pairs of a synthetic scene's pair_labels.txt (lines NAME1 NAME2
-// INLIERS TRUE DOPPELGANGER RANDOM) whose doppelganger inliers outnumber the
-// true ones, as sorted name pairs.
+// The doppelganger pairs of a synthetic scene's pair_labels.txt, as sorted
+// name pairs.
 std::set<std::pair<std::string, std::string>> DoppelgangerPairs(
     const std::string& labels_path) {
   std::set<std::pair<std::string, std::string>> pairs;
-  std::ifstream in(labels_path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string name1, name2;
-    size_t inliers = 0, num_true = 0, num_doppelganger = 0;
-    fields >> name1 >> name2 >> inliers >> num_true >> num_doppelganger;
-    if (num_doppelganger > num_true) {
-      pairs.insert(std::minmax(name1, name2));
-    }
+  for (const PairLabel& l : ReadPairLabels(labels_path)) {
+    if (l.IsDoppelganger()) pairs.insert(std::minmax(l.name1, l.name2));
   }
   return pairs;
 }
@@ -582,25 +571,17 @@ TEST(HierarchicalMapper, ReseededModelsAreJoinedOrWrittenApart) {
 }
 
 // Writes an oracle plug-in's scores: each verified pair's true share of
-// inliers, from the pair_labels.txt of a synthetic scene (lines NAME1 NAME2
-// INLIERS TRUE DOPPELGANGER RANDOM).
+// inliers, from the pair_labels.txt of a synthetic scene.
 void WriteOracleScores(const std::string& labels_path,
                        const std::string& scores_path) {
-  std::ifstream in(labels_path);
+  const std::vector<PairLabel> labels = ReadPairLabels(labels_path);
+  ASSERT_FALSE(labels.empty()) << labels_path;
   std::ofstream out(scores_path);
-  std::string line;
-  size_t num_pairs = 0;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string name1, name2;
-    double inliers = 0, num_true = 0;
-    fields >> name1 >> name2 >> inliers >> num_true;
-    ASSERT_GT(inliers, 0) << line;
-    out << name1 << ' ' << name2 << ' ' << num_true / inliers << '\n';
-    ++num_pairs;
+  for (const PairLabel& l : labels) {
+    ASSERT_GT(l.num_inliers, 0u) << l.name1 << " " << l.name2;
+    out << l.name1 << ' ' << l.name2 << ' '
+        << static_cast<double>(l.num_true) / l.num_inliers << '\n';
   }
-  ASSERT_GT(num_pairs, 0u) << labels_path;
 }
 
 // A randomized instance of a synthetic family in `tmp`, with mapper options

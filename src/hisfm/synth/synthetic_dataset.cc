@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <unordered_map>
 
 #include "hisfm/io/colmap_version.h"
@@ -327,6 +328,27 @@ SynthDatasetSummary WriteSyntheticDataset(const SynthOptions& options,
   output.Commit();
   HISFM_LOG_INFO("Wrote {} ({:.1f} s)", output_path, summary.total_seconds);
   return summary;
+}
+
+std::vector<PairLabel> ReadPairLabels(const std::string& path) {
+  std::ifstream in(path);
+  ThrowUnless(in.good(), StrCat("cannot read ", path));
+  std::vector<PairLabel> labels;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    PairLabel l;
+    fields >> l.name1 >> l.name2 >> l.num_inliers >> l.num_true >>
+        l.num_doppelganger >> l.num_random;
+    ThrowUnless(!fields.fail() && l.num_inliers == l.num_true +
+                                                       l.num_doppelganger +
+                                                       l.num_random,
+                StrCat(path, ": not a line of pair labels: ", line));
+    labels.push_back(std::move(l));
+  }
+  ThrowUnless(!in.bad(), StrCat("cannot read ", path));
+  return labels;
 }
 
 }  // namespace hisfm

@@ -25,6 +25,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "hisfm/synth/synth_options.h"
 #include "hisfm/synth/synthetic_matches.h"
@@ -78,5 +79,22 @@ InlierLabelCounts CountInlierLabels(const SynthPairMatches& matches,
 /// the pair's labelled putative matches) relate different points.
 bool IsDoppelgangerInlierSet(const SynthPairMatches& matches,
                              const std::vector<FeatureMatch>& inliers);
+
+/// One line of pair_labels.txt: a verified pair's inliers by kind.
+struct PairLabel {
+  std::string name1;
+  std::string name2;
+  size_t num_inliers = 0;
+  size_t num_true = 0;
+  size_t num_doppelganger = 0;
+  size_t num_random = 0;
+  /// Whether the pair's doppelganger inliers outnumber its true ones.
+  bool IsDoppelganger() const { return num_doppelganger > num_true; }
+};
+
+/// Reads a pair_labels.txt that WriteSyntheticDataset wrote, in file order.
+/// Throws hisfm::Error if the file cannot be read or a line is malformed
+/// (fewer than six fields, or counts that do not add up).
+std::vector<PairLabel> ReadPairLabels(const std::string& path);
 
 }  // namespace hisfm

@@ -9,7 +9,6 @@
 #include <nlohmann/json.hpp>
 #include <random>
 #include <set>
-#include <sstream>
 
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
@@ -152,25 +151,12 @@ SynthOptions RandomFamily(const std::string& scene, int num_images,
   return options;
 }
 
-struct PairLabelLine {
-  size_t inliers = 0, num_true = 0, num_doppelganger = 0, num_random = 0;
-};
-
 // pair_labels.txt by image-name pair.
-std::map<std::pair<std::string, std::string>, PairLabelLine> ReadPairLabels(
+std::map<std::pair<std::string, std::string>, PairLabel> PairLabelsByNames(
     const std::string& path) {
-  std::map<std::pair<std::string, std::string>, PairLabelLine> labels;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream fields(line);
-    std::string name1, name2;
-    PairLabelLine l;
-    fields >> name1 >> name2 >> l.inliers >> l.num_true >> l.num_doppelganger >>
-        l.num_random;
-    EXPECT_FALSE(fields.fail()) << line;
-    labels[{name1, name2}] = l;
+  std::map<std::pair<std::string, std::string>, PairLabel> labels;
+  for (PairLabel& l : ReadPairLabels(path)) {
+    labels[{l.name1, l.name2}] = std::move(l);
   }
   return labels;
 }
@@ -203,10 +189,26 @@ TEST_F(SyntheticDatasetTest, FamilyOutputIsAFunctionOfFamilySizeAndSeed) {
   EXPECT_GT(json.at("observed_clutter_ratio").get<double>(), 0.0);
 }
 
+TEST_F(SyntheticDatasetTest, MalformedPairLabelsAreRefused) {
+  const auto write = [&](const std::string& text) {
+    std::ofstream(Path("labels.txt")) << text;
+    return Path("labels.txt");
+  };
+  const auto labels = ReadPairLabels(
+      write("# NAME1 NAME2 INLIERS TRUE DOPPELGANGER RANDOM\na b 5 1 3 1\n"));
+  ASSERT_EQ(labels.size(), 1u);
+  EXPECT_EQ(labels[0].name2, "b");
+  EXPECT_EQ(labels[0].num_doppelganger, 3u);
+  EXPECT_TRUE(labels[0].IsDoppelganger());
+  EXPECT_THROW(ReadPairLabels(write("a b 5 1 3\n")), Error);
+  EXPECT_THROW(ReadPairLabels(write("a b 6 1 3 1\n")), Error);
+  EXPECT_THROW(ReadPairLabels(Path("missing.txt")), Error);
+}
+
 TEST_F(SyntheticDatasetTest, PairLabelsDescribeTheInliers) {
   const SynthDatasetSummary summary =
       WriteSyntheticDataset(RandomFamily("block_loop", 24, 2), Path("scene"));
-  const auto labels = ReadPairLabels(Path("scene/pair_labels.txt"));
+  const auto labels = PairLabelsByNames(Path("scene/pair_labels.txt"));
   ASSERT_EQ(labels.size(), summary.num_verified_pairs);
   const Database database(Path("scene/database.db"));
   const Reconstruction gt = ReadModelBinary(Path("scene/ground_truth"));
@@ -218,9 +220,8 @@ TEST_F(SyntheticDatasetTest, PairLabelsDescribeTheInliers) {
   for (const VerifiedPair& vp : database.ReadVerifiedPairs(15)) {
     const auto it = labels.find({names.at(vp.pair.image_id1), names.at(vp.pair.image_id2)});
     ASSERT_NE(it, labels.end());
-    const PairLabelLine& l = it->second;
-    EXPECT_EQ(l.inliers, vp.num_inliers);
-    EXPECT_EQ(l.inliers, l.num_true + l.num_doppelganger + l.num_random);
+    const PairLabel& l = it->second;
+    EXPECT_EQ(l.num_inliers, vp.num_inliers);
     // A true inlier observes one ground-truth point in both images.
     const TwoViewGeometry g =
         database.ReadTwoViewGeometry(vp.pair.image_id1, vp.pair.image_id2);
@@ -234,7 +235,7 @@ TEST_F(SyntheticDatasetTest, PairLabelsDescribeTheInliers) {
       }
     }
     EXPECT_EQ(same_point, l.num_true);
-    if (l.num_doppelganger > l.num_true) ++doppelganger_pairs;
+    if (l.IsDoppelganger()) ++doppelganger_pairs;
     if (l.num_true > 0 && l.num_doppelganger > 0) ++mixed_pairs;
   }
   EXPECT_EQ(doppelganger_pairs, summary.num_doppelganger_pairs);
@@ -279,7 +280,7 @@ TEST_F(SyntheticDatasetTest, FamilyDirectVerificationAgreesWithColmap) {
                                   Path("colmap/database.db")),
             0.95);
   size_t mixed = 0;
-  for (const auto& [names, l] : ReadPairLabels(Path("colmap/pair_labels.txt"))) {
+  for (const auto& [names, l] : PairLabelsByNames(Path("colmap/pair_labels.txt"))) {
     if (l.num_true > l.num_doppelganger && l.num_doppelganger > 0) ++mixed;
   }
   EXPECT_GT(mixed, 5u);
