@@ -66,7 +66,8 @@ int main(int argc, char** argv) {
   bool triplets_only = false;
   app.add_flag("--triplets_only", triplets_only,
                "Only the triplet translation cue (no edge test): TSV columns "
-               "id1 id2 label inliers triplet_err num_triplets rot_err dir_err");
+               "id1 id2 label inliers triplet_err num_triplets rot_err dir_err "
+               "rotation_loop_err");
   int max_triplets = 10;
   app.add_option("--max_triplets", max_triplets,
                  "Third images per pair, strongest first");
@@ -296,11 +297,15 @@ int main(int argc, char** argv) {
   // pairs (a, c), (b, c), v turned into a's frame by the pair's rotation)
   // put b - a in the cone of u and -v. Median angle over the strongest
   // triangles; -1 without any.
-  const auto triplet_error = [&](const ImagePair& p, int* count) {
+  // Also sets *rotation_error to the median angle (degrees) of the rotation
+  // loop a -> b -> c -> a over the same triangles (Zach et al. 2010).
+  const auto triplet_error = [&](const ImagePair& p, int* count,
+                                 double* rotation_error) {
     const ImageId a = p.image_id1, b = p.image_id2;
     Eigen::Vector3d d;
     Eigen::Matrix3d R_ba;
     *count = 0;
+    *rotation_error = -1.0;
     if (!direction(a, b, &d, &R_ba)) return -1.0;
     std::vector<std::pair<uint32_t, ImageId>> thirds;
     for (const size_t e : graph.IncidentEdges(graph.IndexOf(a))) {
@@ -310,16 +315,25 @@ int main(int argc, char** argv) {
     }
     std::sort(thirds.rbegin(), thirds.rend());
     if (thirds.size() > static_cast<size_t>(max_triplets)) thirds.resize(max_triplets);
-    std::vector<double> errors;
+    std::vector<double> errors, rotation_errors;
     for (const auto& [w, c] : thirds) {
       Eigen::Vector3d u, v;
-      if (!direction(a, c, &u, nullptr) || !direction(b, c, &v, nullptr)) continue;
+      Eigen::Matrix3d R_ca, R_cb;
+      if (!direction(a, c, &u, &R_ca) || !direction(b, c, &v, &R_cb)) continue;
       errors.push_back(cone_angle(d, u, -(R_ba.transpose() * v)));
+      const Eigen::Matrix3d loop = R_ca.transpose() * R_cb * R_ba;
+      rotation_errors.push_back(
+          std::acos(std::clamp((loop.trace() - 1.0) / 2.0, -1.0, 1.0)) *
+          180.0 / M_PI);
     }
     *count = static_cast<int>(errors.size());
     if (errors.empty()) return -1.0;
-    std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
-    return errors[errors.size() / 2];
+    const auto median = [](std::vector<double>& x) {
+      std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+      return x[x.size() / 2];
+    };
+    *rotation_error = median(rotation_errors);
+    return median(errors);
   };
   if (triplets_only) {
     std::ofstream tout(output_path);
@@ -328,7 +342,8 @@ int main(int argc, char** argv) {
       auto it = labels.find(e.pair);
       if (it == labels.end() || (it->second != 0 && it->second != 1)) continue;
       int count = 0;
-      const double err = triplet_error(e.pair, &count);
+      double rotation_loop = -1;
+      const double err = triplet_error(e.pair, &count, &rotation_loop);
       double rot = -1, dir = -1;
       const auto g = verifier.cache().Pair(e.pair.image_id1, e.pair.image_id2);
       if (!reference.images.empty() && !g->hypotheses.empty()) {
@@ -340,7 +355,8 @@ int main(int argc, char** argv) {
       if (err >= 0 && rot >= 0) (rot < 5 && dir < 10 ? gpos : gneg).push_back(-err);
       tout << e.pair.image_id1 << '\t' << e.pair.image_id2 << '\t'
            << it->second << '\t' << e.weight << '\t' << err << '\t'
-           << count << '\t' << rot << '\t' << dir << '\n';
+           << count << '\t' << rot << '\t' << dir << '\t' << rotation_loop
+           << '\n';
     }
     std::cout << "pairs with triangles: " << tpos.size() << " true, "
               << tneg.size() << " false; AUC(-triplet_err) " << Auc(tpos, tneg)
