@@ -1,11 +1,11 @@
 // Measures the built-in verifier's evidence on labelled image pairs and
 // reports how well each cue separates true pairs from doppelgangers (AUC).
 #include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
 #include <algorithm>
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <set>
 #include <sstream>
@@ -55,7 +55,8 @@ int main(int argc, char** argv) {
       ->excludes(labels_option);
   app.add_option("--bridges_of", bridges_path,
                  "A view_graph.json: only its bridges (skeleton and rejected)");
-  app.add_option("--output", output_path, "TSV of every judged pair");
+  auto* output_option =
+      app.add_option("--output", output_path, "TSV of every judged pair");
   std::string reference_path;
   app.add_option("--reference", reference_path,
                  "Ground-truth model: adds pose errors of models and joins");
@@ -64,16 +65,22 @@ int main(int argc, char** argv) {
   app.add_option("--max_view_angle", max_angle);
   app.add_option("--radius", radius, "Keypoint radius (pixels)");
   bool triplets_only = false;
-  app.add_flag("--triplets_only", triplets_only,
-               "Only the triplet translation cue (no edge test): TSV columns "
-               "id1 id2 label inliers triplet_err num_triplets rot_err dir_err "
-               "rotation_loop_err");
+  app.add_flag(
+      "--triplets_only", triplets_only,
+      "Only the triangle cues, translation cone and rotation loop (no edge "
+      "test): TSV columns id1 id2 label inliers triplet_err num_triplets "
+      "rot_err dir_err rotation_loop_err");
   int max_triplets = 10;
   app.add_option("--max_triplets", max_triplets,
-                 "Third images per pair, strongest first");
+                 "Third images per pair, strongest first (up to this many)")
+      ->check(CLI::PositiveNumber);
   std::vector<ImageId> debug_pairs;
   app.add_option("--debug_pair", debug_pairs, "id1 id2: print its models");
   CLI11_PARSE(app, argc, argv);
+  if (triplets_only && output_option->count() == 0) {
+    std::cerr << "error: --triplets_only needs --output\n";
+    return 1;
+  }
 
   Database database(database_path);
   const ViewGraph graph = ReadViewGraph(database, 15);
@@ -87,6 +94,11 @@ int main(int argc, char** argv) {
     std::map<std::string, ImageId> ids;
     for (const DatabaseImage& im : database.ReadImages()) ids[im.name] = im.image_id;
     for (const PairLabel& l : ReadPairLabels(pair_labels_path)) {
+      if (!ids.count(l.name1) || !ids.count(l.name2)) {
+        std::cerr << "error: " << pair_labels_path << " names " << l.name1
+                  << " or " << l.name2 << ", not in the database\n";
+        return 1;
+      }
       labels[ImagePair(ids.at(l.name1), ids.at(l.name2))] =
           2 * l.num_true >= l.num_inliers ? 1 : (l.IsDoppelganger() ? 0 : -1);
     }
@@ -99,9 +111,9 @@ int main(int argc, char** argv) {
     const nlohmann::json view_graph = nlohmann::json::parse(in);
     std::set<ImagePair> bridges;
     for (const char* list : {"skeleton_bridges", "rejected_bridges"}) {
-      for (const nlohmann::json& b : view_graph[list]) {
-        bridges.insert(ImagePair(b["image_id1"].get<ImageId>(),
-                                 b["image_id2"].get<ImageId>()));
+      for (const nlohmann::json& b : view_graph.at(list)) {
+        bridges.insert(ImagePair(b.at("image_id1").get<ImageId>(),
+                                 b.at("image_id2").get<ImageId>()));
       }
     }
     for (auto it = labels.begin(); it != labels.end();) {
@@ -337,7 +349,11 @@ int main(int argc, char** argv) {
   };
   if (triplets_only) {
     std::ofstream tout(output_path);
-    std::vector<double> tpos, tneg, gpos, gneg;
+    tout << "id1\tid2\tlabel\tinliers\ttriplet_err\tnum_triplets\trot_err\t"
+            "dir_err\trotation_loop_err\n";
+    // Negated angles of the two cues, by inlier label and by pose
+    // (right: rotation within 5 degrees, direction within 10).
+    std::vector<double> cone[2][2], loop[2][2];
     for (const ViewGraphEdge& e : graph.Edges()) {
       auto it = labels.find(e.pair);
       if (it == labels.end() || (it->second != 0 && it->second != 1)) continue;
@@ -346,25 +362,33 @@ int main(int argc, char** argv) {
       const double err = triplet_error(e.pair, &count, &rotation_loop);
       double rot = -1, dir = -1;
       const auto g = verifier.cache().Pair(e.pair.image_id1, e.pair.image_id2);
-      if (!reference.images.empty() && !g->hypotheses.empty()) {
+      if (reference.images.count(e.pair.image_id1) &&
+          reference.images.count(e.pair.image_id2) && !g->hypotheses.empty()) {
         pose_error(e.pair.image_id1, e.pair.image_id2,
                    g->hypotheses[0].cam2_from_cam1, &rot, &dir);
       }
-      if (err >= 0) (it->second ? tpos : tneg).push_back(-err);
-      // Right by pose: rotation within 5 degrees, direction within 10.
-      if (err >= 0 && rot >= 0) (rot < 5 && dir < 10 ? gpos : gneg).push_back(-err);
+      if (err >= 0) {
+        cone[0][it->second].push_back(-err);
+        loop[0][it->second].push_back(-rotation_loop);
+        if (rot >= 0) {
+          const int right = rot < 5 && dir < 10;
+          cone[1][right].push_back(-err);
+          loop[1][right].push_back(-rotation_loop);
+        }
+      }
       tout << e.pair.image_id1 << '\t' << e.pair.image_id2 << '\t'
            << it->second << '\t' << e.weight << '\t' << err << '\t'
            << count << '\t' << rot << '\t' << dir << '\t' << rotation_loop
            << '\n';
     }
-    std::cout << "pairs with triangles: " << tpos.size() << " true, "
-              << tneg.size() << " false; AUC(-triplet_err) " << Auc(tpos, tneg)
-              << "\n";
-    if (!reference.images.empty()) {
-      std::cout << "by pose (rotation < 5 deg, direction < 10 deg): "
-                << gpos.size() << " right, " << gneg.size()
-                << " wrong; AUC(-triplet_err) " << Auc(gpos, gneg) << "\n";
+    const char* kBy[2] = {"by inlier label",
+                          "by pose (rotation < 5 deg, direction < 10 deg)"};
+    for (int by = 0; by < 2; ++by) {
+      if (by == 1 && reference.images.empty()) break;
+      std::cout << kBy[by] << ": " << cone[by][1].size() << " right, "
+                << cone[by][0].size() << " wrong pairs with triangles; AUC "
+                << "cone " << Auc(cone[by][1], cone[by][0]) << ", rotation loop "
+                << Auc(loop[by][1], loop[by][0]) << "\n";
     }
     return 0;
   }

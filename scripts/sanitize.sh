@@ -30,11 +30,14 @@ echo "==> Test suite under ASan/UBSan"
 # matching, verification of every pair and mapping of real photos; 5 to 15
 # minutes each under the sanitizers): scripts/test.sh runs them, and the code
 # of hisfm they reach runs here in the synthetic pipeline tests. Likewise two
-# synthetic end-to-end tests, 10 and 5 minutes each here: the merging and
-# re-seeding of MergesSubModelsAndReseedsWhatTheAttachLeaves (150 images) run
-# here in ReseededModelsAreJoinedOrWrittenApart, and the plug-in judging
-# trusted edges (PlugInVerifierJudgesTheTrustedEdges, two mapper runs) in
-# PlugInVerifierScoresSupportEdges.
+# synthetic end-to-end tests, 10 and 5 minutes each here:
+# - MergesSubModelsAndReseedsWhatTheAttachLeaves (150 images): the merge
+#   itself runs here in model_merge_test, the re-seeding and a refused merge
+#   in ReseededModelsAreJoinedOrWrittenApart; the mapper's steps after a
+#   merge that succeeds run in the release suite only;
+# - PlugInVerifierJudgesTheTrustedEdges (two mapper runs): a plug-in judging
+#   trusted edges runs here in PlugInVerifierScoresSupportEdges, its
+#   rejections in trusted_edges_test and verified_hierarchy_test.
 ctest --output-on-failure -j2 --timeout 1800 -LE fuzz \
   -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrect(WhereColmapFolds|AtThePapersTau)|HierarchicalMapper\.(MergesSubModelsAndReseedsWhatTheAttachLeaves|PlugInVerifierJudgesTheTrustedEdges)|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
 tested=$(date +%s)

@@ -442,14 +442,14 @@ std::set<std::pair<std::string, std::string>> BridgesAmong(
     const std::set<std::pair<std::string, std::string>>& pairs,
     bool outvoted_only = false) {
   std::map<int64_t, std::string> names;
-  for (const nlohmann::json& im : view_graph["images"]) {
-    names[im["image_id"].get<int64_t>()] = im["name"].get<std::string>();
+  for (const nlohmann::json& im : view_graph.at("images")) {
+    names[im.at("image_id").get<int64_t>()] = im.at("name").get<std::string>();
   }
   std::set<std::pair<std::string, std::string>> found;
-  for (const nlohmann::json& b : view_graph[list]) {
+  for (const nlohmann::json& b : view_graph.at(list)) {
     if (outvoted_only && !b.value("outvoted", false)) continue;
-    const auto names12 = std::minmax(names[b["image_id1"].get<int64_t>()],
-                                     names[b["image_id2"].get<int64_t>()]);
+    const auto names12 = std::minmax(names[b.at("image_id1").get<int64_t>()],
+                                     names[b.at("image_id2").get<int64_t>()]);
     if (pairs.count(names12)) found.insert(names12);
   }
   return found;
@@ -459,9 +459,10 @@ std::set<std::pair<std::string, std::string>> BridgesAmong(
 // first tree's first bridge between the streets is a doppelganger of rank 7
 // scoring 0.67, whose cycles with the heavier true pairs at the crossing
 // turn by about the angle between the streets. Without the peer vote
-// (SkeletonOptions::peer_vote_size) the skeleton takes it and the model
-// folds the streets (checked on the hierarchy, the cause, so the mapper
-// runs once); with the vote it is refused and the model is correct.
+// (SkeletonOptions::peer_vote_size) the skeleton takes doppelganger bridges,
+// and the model folds the streets (measured when the vote was added; the
+// test checks the cause, on the hierarchy, so that the mapper runs once).
+// With the vote each of them is outvoted and the model is correct.
 TEST(HierarchicalMapper, PeerVoteRefusesADoppelgangerBetweenCrossingStreets) {
   if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
   TempDir tmp;
@@ -477,7 +478,7 @@ TEST(HierarchicalMapper, PeerVoteRefusesADoppelgangerBetweenCrossingStreets) {
   const auto taken_without_vote =
       BridgesAmong(off_graph, "skeleton_bridges", doppelgangers);
   ASSERT_FALSE(taken_without_vote.empty())
-      << "the premise: without the vote a doppelganger bridges the streets";
+      << "the premise: without the vote the skeleton takes a doppelganger";
 
   HierarchicalMapperOptions on;
   on.hierarchy.skeleton.peer_vote_size = 8;

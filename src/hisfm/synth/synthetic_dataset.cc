@@ -339,12 +339,19 @@ std::vector<PairLabel> ReadPairLabels(const std::string& path) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream fields(line);
     PairLabel l;
-    fields >> l.name1 >> l.name2 >> l.num_inliers >> l.num_true >>
-        l.num_doppelganger >> l.num_random;
-    ThrowUnless(!fields.fail() && l.num_inliers == l.num_true +
-                                                       l.num_doppelganger +
-                                                       l.num_random,
+    long long counts[4] = {-1, -1, -1, -1};
+    fields >> l.name1 >> l.name2 >> counts[0] >> counts[1] >> counts[2] >>
+        counts[3];
+    const bool six_fields = !fields.fail() && (fields >> std::ws).eof();
+    const bool non_negative = counts[0] >= 0 && counts[1] >= 0 &&
+                              counts[2] >= 0 && counts[3] >= 0;
+    ThrowUnless(six_fields && non_negative &&
+                    counts[0] == counts[1] + counts[2] + counts[3],
                 StrCat(path, ": not a line of pair labels: ", line));
+    l.num_inliers = static_cast<size_t>(counts[0]);
+    l.num_true = static_cast<size_t>(counts[1]);
+    l.num_doppelganger = static_cast<size_t>(counts[2]);
+    l.num_random = static_cast<size_t>(counts[3]);
     labels.push_back(std::move(l));
   }
   ThrowUnless(!in.bad(), StrCat("cannot read ", path));

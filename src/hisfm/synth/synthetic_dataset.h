@@ -94,7 +94,8 @@ struct PairLabel {
 
 /// Reads a pair_labels.txt that WriteSyntheticDataset wrote, in file order.
 /// Throws hisfm::Error if the file cannot be read or a line is malformed
-/// (fewer than six fields, or counts that do not add up).
+/// (not exactly two names and four non-negative counts, or counts that do
+/// not add up).
 std::vector<PairLabel> ReadPairLabels(const std::string& path);
 
 }  // namespace hisfm

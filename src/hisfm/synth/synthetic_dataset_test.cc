@@ -202,6 +202,8 @@ TEST_F(SyntheticDatasetTest, MalformedPairLabelsAreRefused) {
   EXPECT_TRUE(labels[0].IsDoppelganger());
   EXPECT_THROW(ReadPairLabels(write("a b 5 1 3\n")), Error);
   EXPECT_THROW(ReadPairLabels(write("a b 6 1 3 1\n")), Error);
+  EXPECT_THROW(ReadPairLabels(write("a b 5 1 3 1 x\n")), Error);
+  EXPECT_THROW(ReadPairLabels(write("a b 5 -1 5 1\n")), Error);
   EXPECT_THROW(ReadPairLabels(Path("missing.txt")), Error);
 }
 
