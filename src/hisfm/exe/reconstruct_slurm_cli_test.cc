@@ -228,10 +228,15 @@ TEST(ReconstructSlurm, VocabTreeMatchesTheLocalPairs) {
   EXPECT_GE(pa.size(), 3u);
   EXPECT_LT(pa.size(), 10u);
   ASSERT_EQ(pa.size(), pb.size());
+  // Inlier counts as the books test bounds every pair (RANSAC's draws differ
+  // between runs, see above): within 20% (or 3 inliers). Its 5% bar is a
+  // share of pairs, which 3 to 9 pairs cannot measure: a pair of 111
+  // inliers differed by 8 in one CI run.
   for (const auto& [pair, n] : pa) {
     const auto it = pb.find(pair);
     ASSERT_NE(it, pb.end()) << pair.first << " " << pair.second;
-    EXPECT_LE(std::abs(static_cast<double>(it->second) - n), 0.05 * n + 1);
+    EXPECT_LE(std::abs(static_cast<double>(it->second) - n), 0.2 * n + 3)
+        << pair.first << " " << pair.second;
   }
 }
 
