@@ -310,7 +310,8 @@ int main(int argc, char** argv) {
   // put b - a in the cone of u and -v. Median angle over the strongest
   // triangles; -1 without any.
   // Also sets *rotation_error to the median angle (degrees) of the rotation
-  // loop a -> b -> c -> a over the same triangles (Zach et al. 2010).
+  // loop a -> b -> c -> a over the same triangles (the verifier's
+  // CycleRotationErrorDeg; Zach et al. 2010).
   const auto triplet_error = [&](const ImagePair& p, int* count,
                                  double* rotation_error) {
     const ImageId a = p.image_id1, b = p.image_id2;
@@ -322,21 +323,18 @@ int main(int argc, char** argv) {
     std::vector<std::pair<uint32_t, ImageId>> thirds;
     for (const size_t e : graph.IncidentEdges(graph.IndexOf(a))) {
       const ImageId c = graph.OtherEnd(e, a);
-      if (c == b || graph.Weight(b, c) == 0) continue;
-      thirds.emplace_back(std::min(graph.Edges()[e].weight, graph.Weight(b, c)), c);
+      const uint32_t weight_bc = c == b ? 0 : graph.Weight(b, c);
+      if (weight_bc == 0) continue;
+      thirds.emplace_back(std::min(graph.Edges()[e].weight, weight_bc), c);
     }
     std::sort(thirds.rbegin(), thirds.rend());
     if (thirds.size() > static_cast<size_t>(max_triplets)) thirds.resize(max_triplets);
     std::vector<double> errors, rotation_errors;
     for (const auto& [w, c] : thirds) {
       Eigen::Vector3d u, v;
-      Eigen::Matrix3d R_ca, R_cb;
-      if (!direction(a, c, &u, &R_ca) || !direction(b, c, &v, &R_cb)) continue;
+      if (!direction(a, c, &u, nullptr) || !direction(b, c, &v, nullptr)) continue;
       errors.push_back(cone_angle(d, u, -(R_ba.transpose() * v)));
-      const Eigen::Matrix3d loop = R_ca.transpose() * R_cb * R_ba;
-      rotation_errors.push_back(
-          std::acos(std::clamp((loop.trace() - 1.0) / 2.0, -1.0, 1.0)) *
-          180.0 / M_PI);
+      rotation_errors.push_back(verifier.CycleRotationErrorDeg({a, b, c}));
     }
     *count = static_cast<int>(errors.size());
     if (errors.empty()) return -1.0;
