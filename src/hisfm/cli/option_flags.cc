@@ -24,6 +24,26 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   auto& h = o->hierarchy;
   visit("--HiSfM.min_num_matches", o->min_num_matches,
         "Ignore verified pairs with fewer inliers");
+  auto& seq = o->sequence;
+  visit("--HiSfM.sequence_prior", seq.sequence.mode,
+        "Use the image names' order as the capture order: auto (when the "
+        "matches show it), on or off");
+  visit("--HiSfM.sequence_min_z_score", seq.sequence.min_z_score,
+        "auto: consecutive names' inliers against shuffled orders, in "
+        "standard deviations");
+  visit("--HiSfM.sequence_min_consecutive_share",
+        seq.sequence.min_consecutive_share,
+        "auto: share of consecutive names that must be verified pairs");
+  visit("--HiSfM.sequence_break_ratio", seq.sequence.break_ratio,
+        "A consecutive pair weaker than this share of its neighbours' median "
+        "breaks the chain");
+  visit("--HiSfM.sequence_max_transfer_error",
+        seq.agreement.max_transfer_error,
+        "A match agrees with the chain when its 3D point projects this close "
+        "(share of the image diagonal)");
+  visit("--HiSfM.sequence_min_agreeing_share",
+        seq.agreement.min_agreeing_share,
+        "A pair is removed when fewer of its matches agree with the chain");
   visit("--HiSfM.top_k", h.communities.top_k,
         "Strongest neighbours kept per image to form communities (k)");
   visit("--HiSfM.num_trees", h.skeleton.num_trees,

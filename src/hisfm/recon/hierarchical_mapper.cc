@@ -28,6 +28,7 @@ namespace hisfm {
 void HierarchicalMapperOptions::Check() const {
   HISFM_CHECK_OPTION(min_num_matches, min_num_matches >= 1, ">= 1");
   HISFM_CHECK_OPTION(min_model_size, min_model_size >= 2, ">= 2");
+  sequence.Check();
   HISFM_CHECK_OPTION(reseed_rounds, reseed_rounds >= 0, ">= 0");
   HISFM_CHECK_OPTION(filter_top_pairs, filter_top_pairs >= 0, ">= 0");
   HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
@@ -97,6 +98,9 @@ struct LoadedInput {
   /// Verified pairs in the database (before the pair filter).
   size_t num_verified_pairs = 0;
   nlohmann::json pair_filter;
+  /// The sequence pass's summary (null when it was not asked for).
+  nlohmann::json sequence;
+  double sequence_seconds = 0;
   /// The builtin multi-view verifier's outcome (verified_hierarchy.h):
   /// cleaned inliers of the hierarchy's edges, and counts.
   std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
@@ -608,6 +612,10 @@ ModelFolder AttachLeaves(const ComponentRun& run,
   // 10 images, and then fails when it cannot start another).
   AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
                  std::to_string(options.min_model_size), &args);
+  if (!options.attach_refine_focal_length && !scaffold.empty()) {
+    AddDefaultFlag(options.mapper_args, "--Mapper.ba_refine_focal_length",
+                   "0", &args);
+  }
   if (options.attach_local_only && !scaffold.empty()) {
     // No periodic global bundle adjustment while attaching: local bundle
     // adjustment after each registration, one global one at the end.
@@ -1098,7 +1106,9 @@ nlohmann::json MapperSummary(const LoadedInput& in, const MapperPaths& paths,
     summary["mean_reprojection_error"] = models[0]["mean_reprojection_error"];
     summary["mean_track_length"] = models[0]["mean_track_length"];
   }
+  summary["sequence"] = in.sequence;
   summary["timings"] = {{"read_database", in.read_seconds},
+                        {"sequence_pass", in.sequence_seconds},
                         {"filter_pairs", in.filter_seconds},
                         {"build_hierarchy", in.graph_seconds},
                         {"filter_databases", times.filter_databases},
@@ -1140,8 +1150,50 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   PrepareWorkDirectory(work, "view_graph.json");
 
   AtomicDirectory output(output_path);
+  // The sequence pass's chain: this mapper without the pass, its work kept
+  // under work/sequence.
+  const std::string sequence_work = work + "/sequence";
+  const ChainReconstructor reconstruct_chain =
+      [&](const std::string& chain_db) {
+        HierarchicalMapperOptions chain_options = options;
+        chain_options.sequence.sequence.mode = "off";
+        chain_options.attach_refine_focal_length = false;
+        MapperPaths chain_paths;
+        chain_paths.database_path = chain_db;
+        chain_paths.image_path = paths.image_path;
+        chain_paths.output_path = sequence_work + "/chain_model";
+        chain_paths.work_path = sequence_work + "/chain_work";
+        std::error_code remove_ec;
+        fs::remove_all(chain_paths.output_path, remove_ec);
+        fs::remove_all(chain_paths.work_path, remove_ec);
+        RunHierarchicalMapper(chain_paths, chain_options);
+        return ReadNumberedModels(chain_paths.output_path);
+      };
+  // The rest reads the cleaned database when the pass ran.
+  std::string database_path = paths.database_path;
+  nlohmann::json sequence;
+  double sequence_seconds = 0.0;
+  size_t num_input_pairs = 0;
+  SequencePassResult pass;
+  if (options.sequence.sequence.mode != "off") {
+    LogHeading("Checking the pairs against the capture sequence");
+    pass =
+        RunSequencePass(paths.database_path, options.min_num_matches,
+                        sequence_work, reconstruct_chain, options.sequence);
+    if (pass.ran) {
+      database_path = pass.cleaned_database_path;
+      num_input_pairs = pass.num_input_pairs;
+    }
+    sequence = pass.ToJson();
+    sequence_seconds = pass.seconds;
+  }
+  ThrowIfInterrupted();
   LoadedInput in =
-      LoadAndBuildHierarchy(paths.database_path, paths.image_path, options);
+      LoadAndBuildHierarchy(database_path, paths.image_path, options);
+  in.sequence = sequence;
+  in.sequence_seconds = sequence_seconds;
+  // The summary counts the input's pairs, not the cleaned copy's.
+  if (num_input_pairs > 0) in.num_verified_pairs = num_input_pairs;
   const Hierarchy& h = in.hierarchy;
 
   WriteViewGraphJson(in, work + "/view_graph.json");
@@ -1151,6 +1203,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   StageTimes times;
   size_t model_index = 0;
   size_t num_registered = 0;
+  size_t largest_registered = 0;
   // Models of a component's scaffold or re-seeding that could not be joined
   // to it, with their component's model.
   std::vector<std::pair<Reconstruction, size_t>> separate;
@@ -1164,7 +1217,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     ThrowIfInterrupted();
     LogHeading(StrCat("Component ", c, ": ", comp.images.size(), " images, ",
                       comp.skeleton_images.size(), " in the scaffold"));
-    const ComponentRun run{StrCat(work, "/component", c), paths.database_path,
+    const ComponentRun run{StrCat(work, "/component", c), database_path,
                            paths.image_path};
     try {
       ComponentModel result =
@@ -1173,6 +1226,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       fs::create_directories(model_dir, ec);
       WriteModelBinary(result.model, model_dir);
       num_registered += result.model.NumRegImages();
+      largest_registered =
+          std::max(largest_registered, result.model.NumRegImages());
       models.push_back(ComponentStats(result, comp, model_index - 1));
       for (Reconstruction& model : result.separate) {
         separate.push_back({std::move(model), model_index - 1});
@@ -1196,6 +1251,36 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     num_registered += model.NumRegImages();
     models.push_back(SeparateModelStats(model, model_index - 1, main_index));
   }
+  // Failing soft: where the hierarchy on the cleaned pairs registers fewer
+  // images in one model than the chain did (the chain's models were joined
+  // through every verified pair between them, the hierarchy's only through
+  // its own edges), the chain's models are the result.
+  if (!pass.chain_models.empty() &&
+      pass.chain_models[0].NumRegImages() > largest_registered) {
+    HISFM_LOG_WARN(
+        "the hierarchy's largest model registers {} images, the capture "
+        "sequence's chain {}: writing the chain's models instead",
+        largest_registered, pass.chain_models[0].NumRegImages());
+    for (size_t i = 0; i < model_index; ++i) {
+      fs::remove_all(StrCat(output.path(), "/", i), ec);
+    }
+    models = nlohmann::json::array();
+    separate.clear();
+    num_registered = 0;
+    model_index = 0;
+    for (const Reconstruction& model : pass.chain_models) {
+      const std::string model_dir = StrCat(output.path(), "/", model_index);
+      fs::create_directories(model_dir, ec);
+      WriteModelBinary(model, model_dir);
+      num_registered += model.NumRegImages();
+      nlohmann::json stats = ModelStats(model);
+      stats["path"] = std::to_string(model_index++);
+      stats["sequence_chain"] = true;
+      models.push_back(stats);
+    }
+    sequence["chain_written"] = true;
+  }
+  in.sequence = sequence;
   ThrowUnless(model_index > 0,
               StrCat("no model could be reconstructed; see the logs in ",
                      work, failed.empty() ? std::string()

@@ -22,6 +22,7 @@
 #include "hisfm/graph/hierarchy.h"
 #include "hisfm/recon/colmap_runner.h"
 #include "hisfm/recon/model_merge.h"
+#include "hisfm/recon/sequence_pass.h"
 #include "hisfm/verify/verifier_factory.h"
 
 namespace hisfm {
@@ -30,6 +31,10 @@ struct HierarchicalMapperOptions {
   /// Verified pairs with fewer inliers are ignored (COLMAP's
   /// --Mapper.min_num_matches default).
   int min_num_matches = 15;
+  /// The sequence pass (sequence_pass.h): with images named in capture
+  /// order, pairs that disagree with the reconstructed chain of consecutive
+  /// pairs are removed before the hierarchy is built.
+  SequencePassOptions sequence;
   /// Communities, skeleton and leaves.
   HierarchyOptions hierarchy;
   /// The bridge verifier.
@@ -40,6 +45,15 @@ struct HierarchicalMapperOptions {
   /// global bundle adjustments are switched off for the attach run, whose
   /// final global bundle adjustment is then the single one of the paper.
   bool attach_local_only = true;
+  /// Attach run on a scaffold: refine the focal lengths in its bundle
+  /// adjustments (colmap's --Mapper.ba_refine_focal_length). The sequence
+  /// pass's chain turns it off: with only consecutive pairs the final global
+  /// adjustment trades focal length against a bend of a long street
+  /// (facade_street_150_s7: the scaffold's pairs 0.38 degrees off in
+  /// rotation at the median, 3.65 after the attach run, 0.44 without
+  /// refining the focal length; the scaffold has refined it already). An
+  /// explicit --Mapper flag wins.
+  bool attach_refine_focal_length = true;
   /// Scaffold run: colmap's periodic global bundle adjustment runs when the
   /// model has grown by this factor in images or points since the last one
   /// (colmap's --Mapper.ba_global_images_ratio / points_ratio, default 1.1).
@@ -134,7 +148,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
                                      const HierarchicalMapperOptions& options);
 
 /// Builds only the hierarchy of a database (view graph, communities,
-/// verified skeleton, leaves) and returns HierarchyToJson plus timings.
+/// verified skeleton, leaves) and returns HierarchyToJson plus timings. The
+/// sequence pass is not run (it needs colmap): the hierarchy is the one the
+/// mapper builds with --HiSfM.sequence_prior off.
 nlohmann::json ComputeViewGraphJson(const std::string& database_path,
                                     const std::string& image_path,
                                     const HierarchicalMapperOptions& options);

@@ -202,6 +202,9 @@ TEST(HierarchicalMapper, CupIsCorrectAtThePapersTau) {
 // doppelgangers above tau; the near-miss vote refuses them.
 TEST(HierarchicalMapper, CupIsCorrectAtThePapersTauWithoutABudget) {
   HierarchicalMapperOptions options;
+  // The sequence pass removes those doppelgangers before the skeleton
+  // meets them: off, so that the vote is what is tested.
+  options.sequence.sequence.mode = "off";
   options.hierarchy.skeleton.verify_threshold = 0.8;
   options.hierarchy.skeleton.first_tree_budget_trees = 0;
   nlohmann::json summary;
@@ -480,7 +483,11 @@ TEST(HierarchicalMapper, PeerVoteRefusesADoppelgangerBetweenCrossingStreets) {
   ASSERT_FALSE(taken_without_vote.empty())
       << "the premise: without the vote the skeleton takes a doppelganger";
 
+  // The sequence pass would remove those doppelgangers before the
+  // hierarchy is built (the names are in capture order): off, so that the
+  // vote is what is tested.
   HierarchicalMapperOptions on;
+  on.sequence.sequence.mode = "off";
   on.hierarchy.skeleton.peer_vote_size = 8;
   const nlohmann::json summary = RunHierarchicalMapper(paths, on);
   EXPECT_GE(summary["outvoted_bridges"], 1);
@@ -500,6 +507,40 @@ TEST(HierarchicalMapper, PeerVoteRefusesADoppelgangerBetweenCrossingStreets) {
   EXPECT_TRUE(e.correct) << e.verdict_reason;
 }
 
+// A straight street of repeated facades (tuning seed 7 of the family) where
+// 739 of the 780 pairs are doppelgangers and some photos see no unique
+// clutter: without the sequence pass the hierarchy folds the street (35% of
+// pairs within 5 degrees when measured). The names give the capture order,
+// so the chain of consecutive pairs is reconstructed first and the pairs
+// that disagree with it are removed; the model is then correct.
+TEST(HierarchicalMapper, SequencePassUnfoldsARepeatedStreet) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  MapperPaths paths = SynthScene(tmp, "facade_street", 40, 7, true);
+  const Reconstruction truth = ReadModel(tmp / "scene/ground_truth");
+
+  HierarchicalMapperOptions off;
+  off.sequence.sequence.mode = "off";
+  paths.output_path = tmp / "off";
+  const nlohmann::json off_summary = RunHierarchicalMapper(paths, off);
+  EXPECT_TRUE(off_summary["sequence"].is_null());
+  EXPECT_FALSE(EvaluateModel(ReadModel(tmp / "off/0"), truth, {}).correct)
+      << "the premise: without the pass the street folds";
+
+  paths.output_path = tmp / "out";
+  const nlohmann::json summary =
+      RunHierarchicalMapper(paths, HierarchicalMapperOptions());
+  const nlohmann::json& pass = summary["sequence"];
+  EXPECT_TRUE(pass["applies"]);
+  EXPECT_TRUE(pass["ran"]);
+  EXPECT_EQ(pass["registered"], 40);
+  EXPECT_GT(pass["pairs_removed"].get<int>(), 600);
+  EXPECT_EQ(summary["registered_images"], 40);
+  const PoseEvaluation e =
+      EvaluateModel(ReadModel(tmp / "out/0"), truth, {});
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+}
+
 // When no sub-model can be merged (a merge that needs more shared points
 // than any model has) or joined, what the re-seeding registers is not
 // dropped: it is written as further models, each image in one model only.
@@ -509,6 +550,9 @@ TEST(HierarchicalMapper, ReseededModelsAreJoinedOrWrittenApart) {
   const MapperPaths paths =
       SynthScene(tmp, "crossing_streets", 150, 6, true);
   HierarchicalMapperOptions options;
+  // With the sequence pass the hierarchy leaves nothing to re-seed here:
+  // off, so that the re-seeding is what is tested.
+  options.sequence.sequence.mode = "off";
   options.merge.min_inliers = 1000000;
   options.join_separate_models = false;
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
@@ -595,6 +639,9 @@ struct OracleScene {
     WriteOracleScores(tmp / "scene/pair_labels.txt", tmp / "oracle.txt");
     truth = ReadModel(tmp / "scene/ground_truth");
     options.verifier.verifier = "scores:" + (tmp / "oracle.txt");
+    // The plug-in's part in the hierarchy is what these tests check; the
+    // sequence pass would clean the pairs before the plug-in sees them.
+    options.sequence.sequence.mode = "off";
   }
   /// Runs the mapper with `options` into DIR/name; returns its summary and
   /// sets *evaluation (unless null) to its model's against the truth.

@@ -1,0 +1,119 @@
+#include "hisfm/graph/sequence_chain.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/string_util.h"
+
+namespace hisfm {
+
+void SequenceOptions::Check() const {
+  ThrowUnless(mode == "auto" || mode == "on" || mode == "off",
+              StrCat("sequence prior: mode must be auto, on or off, not '",
+                     mode, "'"));
+  ThrowUnless(min_consecutive_share >= 0.0 && min_consecutive_share <= 1.0,
+              "sequence prior: min_consecutive_share must be in [0, 1]");
+  ThrowUnless(std::isfinite(min_z_score),
+              "sequence prior: min_z_score must be finite");
+  ThrowUnless(num_permutations >= 10,
+              "sequence prior: num_permutations must be at least 10");
+  ThrowUnless(break_ratio >= 0.0 && break_ratio <= 1.0,
+              "sequence prior: break_ratio must be in [0, 1]");
+  ThrowUnless(break_window >= 1, "sequence prior: break_window must be >= 1");
+}
+
+namespace {
+
+// Inliers summed over the consecutive pairs of `order` (dense indices).
+double ConsecutiveWeight(const ViewGraph& graph,
+                         const std::vector<ImageId>& order) {
+  double sum = 0.0;
+  for (size_t k = 0; k + 1 < order.size(); ++k) {
+    sum += graph.Weight(order[k], order[k + 1]);
+  }
+  return sum;
+}
+
+double Median(std::vector<uint32_t> values) {
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  if (values.size() % 2 == 1) return values[mid];
+  const uint32_t upper = values[mid];
+  const uint32_t lower = *std::max_element(values.begin(), values.begin() + mid);
+  return 0.5 * (lower + upper);
+}
+
+}  // namespace
+
+SequenceChain FindSequenceChain(
+    const ViewGraph& graph,
+    const std::unordered_map<ImageId, std::string>& names,
+    const SequenceOptions& options) {
+  options.Check();
+  SequenceChain chain;
+  chain.order = graph.Images();
+  for (const ImageId id : chain.order) {
+    ThrowUnless(names.count(id) > 0,
+                StrCat("sequence prior: image ", id, " has no name"));
+  }
+  std::sort(chain.order.begin(), chain.order.end(),
+            [&](ImageId a, ImageId b) {
+              const std::string& na = names.at(a);
+              const std::string& nb = names.at(b);
+              return na != nb ? na < nb : a < b;
+            });
+  const size_t n = chain.order.size();
+  if (n < 2) return chain;
+
+  std::vector<uint32_t> link_weights(n - 1);
+  size_t num_verified = 0;
+  for (size_t k = 0; k + 1 < n; ++k) {
+    link_weights[k] = graph.Weight(chain.order[k], chain.order[k + 1]);
+    if (link_weights[k] > 0) ++num_verified;
+  }
+  chain.consecutive_share = static_cast<double>(num_verified) / (n - 1);
+
+  if (n >= 3) {
+    const double observed = ConsecutiveWeight(graph, chain.order);
+    std::mt19937 rng(20261206);
+    std::vector<ImageId> shuffled = chain.order;
+    double sum = 0.0, sum_sq = 0.0;
+    for (int p = 0; p < options.num_permutations; ++p) {
+      std::shuffle(shuffled.begin(), shuffled.end(), rng);
+      const double w = ConsecutiveWeight(graph, shuffled);
+      sum += w;
+      sum_sq += w * w;
+    }
+    const double mean = sum / options.num_permutations;
+    const double var =
+        std::max(0.0, sum_sq / options.num_permutations - mean * mean);
+    // A complete graph of equal weights has no spread: any order is as good.
+    chain.z_score = var > 0.0 ? (observed - mean) / std::sqrt(var) : 0.0;
+  }
+
+  chain.applies =
+      options.mode == "on" ||
+      (options.mode == "auto" &&
+       chain.consecutive_share >= options.min_consecutive_share &&
+       chain.z_score >= options.min_z_score);
+
+  const size_t window = static_cast<size_t>(options.break_window);
+  for (size_t k = 0; k + 1 < n; ++k) {
+    const size_t lo = k >= window ? k - window : 0;
+    const size_t hi = std::min(n - 1, k + window + 1);
+    const double local = Median(std::vector<uint32_t>(
+        link_weights.begin() + lo, link_weights.begin() + hi));
+    if (link_weights[k] == 0 || link_weights[k] < options.break_ratio * local) {
+      ++chain.num_breaks;
+      continue;
+    }
+    chain.links.emplace_back(chain.order[k], chain.order[k + 1]);
+  }
+  std::sort(chain.links.begin(), chain.links.end());
+  return chain;
+}
+
+}  // namespace hisfm

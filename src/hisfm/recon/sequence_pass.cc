@@ -1,0 +1,208 @@
+#include "hisfm/recon/sequence_pass.h"
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/interrupt.h"
+#include "hisfm/util/logging.h"
+#include "hisfm/util/string_util.h"
+#include "hisfm/util/timer.h"
+#include "hisfm/verify/view_graph_reader.h"
+
+namespace hisfm {
+
+namespace fs = std::filesystem;
+
+void SequencePassOptions::Check() const {
+  sequence.Check();
+  agreement.Check();
+  join.Check();
+}
+
+nlohmann::json SequencePassResult::ToJson() const {
+  return {{"applies", chain.applies},
+          {"consecutive_share", chain.consecutive_share},
+          {"z_score", chain.z_score},
+          {"links", chain.links.size()},
+          {"breaks", chain.num_breaks},
+          {"ran", ran},
+          {"models", num_models},
+          {"joined", num_joined},
+          {"registered", num_registered},
+          {"pairs_judged", num_judged},
+          {"pairs_removed", num_removed},
+          {"matches_removed", num_matches_removed},
+          {"note", note},
+          {"seconds", seconds}};
+}
+
+namespace {
+
+// The inlier matches of the graph's pairs with one image in `a` and the
+// other in `b`.
+std::vector<PairMatches> PairsAcross(const Database& database,
+                                     const ViewGraph& graph,
+                                     const Reconstruction& a,
+                                     const Reconstruction& b) {
+  std::vector<ImagePair> across;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    const ImagePair& p = e.pair;
+    if ((a.images.count(p.image_id1) && b.images.count(p.image_id2)) ||
+        (b.images.count(p.image_id1) && a.images.count(p.image_id2))) {
+      across.push_back(p);
+    }
+  }
+  std::vector<PairMatches> out;
+  out.reserve(across.size());
+  database.ForEachInlierMatches(
+      across, [&](const ImagePair& pair, FeatureMatchSpan matches) {
+        out.push_back({pair, std::vector<FeatureMatch>(matches.begin(),
+                                                       matches.end())});
+      });
+  return out;
+}
+
+// Joins the models into the largest while any join succeeds; returns the
+// models left (the largest, grown, first) and counts the joins.
+std::vector<Reconstruction> JoinChainModels(const Database& database,
+                                            const ViewGraph& graph,
+                                            std::vector<Reconstruction> models,
+                                            const ModelMergeOptions& options,
+                                            size_t* num_joined) {
+  if (models.empty()) return models;
+  std::swap(models[0], models[LargestModelIndex(models)]);
+  Reconstruction base = std::move(models[0]);
+  std::vector<Reconstruction> rest(std::make_move_iterator(models.begin() + 1),
+                                   std::make_move_iterator(models.end()));
+  std::vector<bool> joined(rest.size(), false);
+  for (bool progress = true; progress;) {
+    progress = false;
+    for (size_t i = 0; i < rest.size(); ++i) {
+      if (joined[i]) continue;
+      const ModelMergeStep step = MergeThroughMatches(
+          rest[i], PairsAcross(database, graph, base, rest[i]), options,
+          &base);
+      HISFM_LOG_INFO(
+          "sequence: {} a chain model of {} images through {} pair(s): {} of "
+          "{} matched points agree",
+          step.merged ? "joined" : "could not join", step.num_images,
+          step.num_pairs, step.num_inliers, step.num_correspondences);
+      if (step.merged) {
+        joined[i] = true;
+        progress = true;
+        ++*num_joined;
+      }
+    }
+  }
+  std::vector<Reconstruction> left;
+  left.push_back(std::move(base));
+  for (size_t i = 0; i < rest.size(); ++i) {
+    if (!joined[i]) left.push_back(std::move(rest[i]));
+  }
+  return left;
+}
+
+}  // namespace
+
+SequencePassResult RunSequencePass(const std::string& database_path,
+                                   int min_num_matches,
+                                   const std::string& work_path,
+                                   const ChainReconstructor& reconstruct,
+                                   const SequencePassOptions& options) {
+  options.Check();
+  Timer timer;
+  SequencePassResult result;
+  const Database database(database_path);
+  const ViewGraph graph = ReadViewGraph(database, min_num_matches);
+  result.num_input_pairs = graph.NumEdges();
+  std::unordered_map<ImageId, std::string> names;
+  for (const DatabaseImage& im : database.ReadImages()) {
+    names[im.image_id] = im.name;
+  }
+  result.chain = FindSequenceChain(graph, names, options.sequence);
+  const SequenceChain& chain = result.chain;
+  HISFM_LOG_INFO(
+      "name order: {:.0f}% of consecutive names verified, z = {:.1f}: {}",
+      100.0 * chain.consecutive_share, chain.z_score,
+      chain.applies ? "a capture sequence" : "not used");
+  auto stop = [&](const std::string& note) {
+    result.note = note;
+    result.seconds = timer.ElapsedSeconds();
+    return result;
+  };
+  if (!chain.applies) {
+    return stop(options.sequence.mode == "off" ? "off"
+                                               : "names give no sequence");
+  }
+  if (chain.links.empty()) return stop("no chain link");
+  HISFM_LOG_INFO("chain: {} links, {} breaks", chain.links.size(),
+                 chain.num_breaks);
+  std::error_code ec;
+  fs::create_directories(work_path, ec);
+  ThrowUnless(!ec, StrCat("cannot create ", work_path, ": ", ec.message()));
+  const std::string chain_db = work_path + "/chain.db";
+  fs::remove(chain_db, ec);
+  WriteFilteredDatabase(database_path, chain_db, chain.links);
+
+  std::vector<Reconstruction> models;
+  try {
+    models = reconstruct(chain_db);
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("sequence: the chain could not be reconstructed ({}); "
+                   "no pair removed",
+                   e.what());
+    return stop(StrCat("the chain could not be reconstructed: ", e.what()));
+  }
+  result.num_models = models.size();
+  models = JoinChainModels(database, graph, std::move(models), options.join,
+                           &result.num_joined);
+
+  // Pairs inside a model keep their agreeing matches or go; the others
+  // stay as they are.
+  const std::vector<ImagePair> pairs = graph.Pairs();
+  std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
+      cleaned;
+  std::set<ImagePair> removed;
+  for (const Reconstruction& model : models) {
+    result.num_registered += model.NumRegImages();
+    for (PairAgreement& a :
+         JudgePairsAgainstModel(database, pairs, model, options.agreement)) {
+      ++result.num_judged;
+      const size_t before = graph.Weight(a.pair.image_id1, a.pair.image_id2);
+      if (!a.agrees) {
+        removed.insert(a.pair);
+        result.num_matches_removed += before;
+        continue;
+      }
+      result.num_matches_removed += before - a.agreeing_matches.size();
+      cleaned[a.pair] = std::move(a.agreeing_matches);
+    }
+  }
+  result.num_removed = removed.size();
+  std::vector<ImagePair> keep;
+  for (const ImagePair& pair : pairs) {
+    if (!removed.count(pair)) keep.push_back(pair);
+  }
+  FilteredDatabaseOptions write;
+  write.replace_inliers = &cleaned;
+  result.cleaned_database_path = work_path + "/cleaned.db";
+  fs::remove(result.cleaned_database_path, ec);
+  WriteFilteredDatabase(database_path, result.cleaned_database_path, keep,
+                        write);
+  result.chain_models = std::move(models);
+  result.ran = true;
+  result.seconds = timer.ElapsedSeconds();
+  HISFM_LOG_INFO(
+      "sequence: {} chain model(s) ({} joined), {} images; {} pairs inside "
+      "them: {} removed, {} of their inlier matches dropped ({:.2f} s)",
+      result.num_models, result.num_joined, result.num_registered,
+      result.num_judged, result.num_removed, result.num_matches_removed,
+      result.seconds);
+  return result;
+}
+
+}  // namespace hisfm

@@ -1,0 +1,101 @@
+// The sequence pass (graph/sequence_chain.h): when the image names give the
+// capture order, the chain of consecutive pairs is reconstructed first, its
+// models are joined through the verified pairs between them where their
+// matched 3D points agree on one similarity (MergeThroughMatches), and every
+// verified pair whose images one of the chain's models holds is put to the
+// transfer test against it (verify/model_agreement.h). A pair that agrees
+// keeps only its matches that agree; the others are removed. The result is a
+// cleaned copy of the database that the rest of the mapper reads: far pairs
+// of a sequence are its loop closures, kept only when they agree with the
+// odometry, as a SLAM system keeps them (graph/sequence_chain.h cites the
+// idea). Pairs with an image outside the chain's models are left to the
+// hierarchy's verification.
+//
+// Against Algorithm 1 of the HiSfM paper this adds a step before it (the
+// paper has no order prior); the hierarchy, its verification and the
+// coarse-to-fine reconstruction then run unchanged on the cleaned database.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "hisfm/graph/sequence_chain.h"
+#include "hisfm/io/model.h"
+#include "hisfm/recon/model_merge.h"
+#include "hisfm/verify/model_agreement.h"
+
+namespace hisfm {
+
+struct SequencePassOptions {
+  /// Whether and how the name order is used.
+  SequenceOptions sequence;
+  /// The transfer test of each pair against the chain's models.
+  ModelAgreementOptions agreement;
+  /// How the chain's models are joined through the pairs between them. The
+  /// share of agreeing points is lower than the mapper's join (0.5): every
+  /// verified pair between two stretches of a repeated street votes here,
+  /// doppelgangers included, where the mapper's join sees only the
+  /// hierarchy's edges.
+  ModelMergeOptions join = [] {
+    ModelMergeOptions options;
+    options.min_inlier_ratio = 0.2;
+    options.min_inliers = 30;
+    return options;
+  }();
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
+
+/// What the pass did.
+struct SequencePassResult {
+  SequenceChain chain;
+  /// True when the chain was reconstructed and pairs were judged.
+  bool ran = false;
+  /// Verified pairs of the input (with at least min_num_matches inliers).
+  size_t num_input_pairs = 0;
+  /// The chain's models, and how many of them were joined into others.
+  size_t num_models = 0;
+  size_t num_joined = 0;
+  /// Images the chain's models registered.
+  size_t num_registered = 0;
+  /// Pairs with both images in one chain model, those removed (they
+  /// disagree or have too few testable matches), and the inlier matches
+  /// the kept ones lost.
+  size_t num_judged = 0;
+  size_t num_removed = 0;
+  size_t num_matches_removed = 0;
+  /// The cleaned database ("" when the pass did not run).
+  std::string cleaned_database_path;
+  /// The chain's models after the joins, the largest first (empty when the
+  /// pass did not run). The mapper writes them instead of its own when its
+  /// largest model registers fewer images than the first of them.
+  std::vector<Reconstruction> chain_models;
+  /// Why the pass did not run or stopped early ("" if it ran).
+  std::string note;
+  double seconds = 0.0;
+
+  /// The summary's "sequence" entry.
+  nlohmann::json ToJson() const;
+};
+
+/// Reconstructs a database holding only the chain's links into numbered
+/// models (the mapper without the sequence pass); throws hisfm::Error when
+/// no model could be made.
+using ChainReconstructor = std::function<std::vector<Reconstruction>(
+    const std::string& chain_database_path)>;
+
+/// Runs the pass on the database at `database_path` (its pairs with at
+/// least `min_num_matches` inliers) and writes the cleaned database under
+/// `work_path`. A failing chain reconstruction cleans nothing (the result's
+/// note says why). The input database is only read.
+SequencePassResult RunSequencePass(const std::string& database_path,
+                                   int min_num_matches,
+                                   const std::string& work_path,
+                                   const ChainReconstructor& reconstruct,
+                                   const SequencePassOptions& options);
+
+}  // namespace hisfm

@@ -1,0 +1,112 @@
+#include "hisfm/verify/model_agreement.h"
+
+#include <cmath>
+#include <unordered_map>
+
+#include "hisfm/util/error.h"
+#include "hisfm/util/string_util.h"
+#include "hisfm/verify/camera_projection.h"
+
+namespace hisfm {
+
+void ModelAgreementOptions::Check() const {
+  ThrowUnless(max_transfer_error > 0.0,
+              "model agreement: max_transfer_error must be positive");
+  ThrowUnless(min_agreeing_share >= 0.0 && min_agreeing_share <= 1.0,
+              "model agreement: min_agreeing_share must be in [0, 1]");
+  ThrowUnless(min_testable >= 1, "model agreement: min_testable must be >= 1");
+}
+
+namespace {
+
+struct ImageView {
+  const Image* image = nullptr;
+  const CameraProjection* camera = nullptr;
+  double max_error = 0.0;  // pixels
+};
+
+enum class Transfer { kUntestable, kAgrees, kDisagrees };
+
+// Transfers keypoint `from_idx` of `from` into `to` and compares it with
+// keypoint `to_idx` there. Adds to the counts when the match is testable.
+Transfer TransferOne(const Reconstruction& model, const ImageView& from,
+                     Point2DIdx from_idx, const ImageView& to,
+                     Point2DIdx to_idx, PairAgreement* agreement) {
+  const auto& from_points = from.image->points2D;
+  const auto& to_points = to.image->points2D;
+  ThrowUnless(from_idx < from_points.size() && to_idx < to_points.size(),
+              StrCat("model agreement: a match of images ",
+                     from.image->image_id, " and ", to.image->image_id,
+                     " indexes past the model's keypoints"));
+  const Point3DId id = from_points[from_idx].point3D_id;
+  if (id == kInvalidPoint3DId) return Transfer::kUntestable;
+  const auto it = model.points3D.find(id);
+  if (it == model.points3D.end()) return Transfer::kUntestable;
+  const Eigen::Vector3d in_cam = to.image->cam_from_world * it->second.xyz;
+  if (in_cam.z() <= 1e-9) return Transfer::kUntestable;
+  ++agreement->num_testable;
+  const Eigen::Vector2d uv =
+      to.camera->NormalizedToPixel(in_cam.hnormalized());
+  if ((uv - to_points[to_idx].xy).norm() > to.max_error) {
+    return Transfer::kDisagrees;
+  }
+  ++agreement->num_agreeing;
+  return Transfer::kAgrees;
+}
+
+}  // namespace
+
+std::vector<PairAgreement> JudgePairsAgainstModel(
+    const Database& database, const std::vector<ImagePair>& pairs,
+    const Reconstruction& model, const ModelAgreementOptions& options) {
+  options.Check();
+  std::unordered_map<CameraId, CameraProjection> cameras;
+  for (const auto& [id, camera] : model.cameras) {
+    cameras.emplace(id, CameraProjection(camera.model_id, camera.width,
+                                         camera.height, camera.params));
+  }
+  std::unordered_map<ImageId, ImageView> views;
+  for (const auto& [id, image] : model.images) {
+    const auto cam = cameras.find(image.camera_id);
+    ThrowUnless(cam != cameras.end(),
+                StrCat("model agreement: image ", id, " has no camera"));
+    const double diagonal = std::hypot(static_cast<double>(cam->second.width()),
+                                       static_cast<double>(cam->second.height()));
+    views[id] = {&image, &cam->second, options.max_transfer_error * diagonal};
+  }
+  std::vector<ImagePair> inside;
+  for (const ImagePair& pair : pairs) {
+    if (views.count(pair.image_id1) && views.count(pair.image_id2)) {
+      inside.push_back(pair);
+    }
+  }
+  std::vector<PairAgreement> result;
+  result.reserve(inside.size());
+  database.ForEachInlierMatches(
+      inside, [&](const ImagePair& pair, FeatureMatchSpan matches) {
+        PairAgreement agreement;
+        agreement.pair = pair;
+        const ImageView& v1 = views.at(pair.image_id1);
+        const ImageView& v2 = views.at(pair.image_id2);
+        for (const FeatureMatch& m : matches) {
+          const Transfer forward =
+              TransferOne(model, v1, m.idx1, v2, m.idx2, &agreement);
+          const Transfer backward =
+              TransferOne(model, v2, m.idx2, v1, m.idx1, &agreement);
+          if (forward != Transfer::kDisagrees &&
+              backward != Transfer::kDisagrees &&
+              (forward == Transfer::kAgrees || backward == Transfer::kAgrees)) {
+            agreement.agreeing_matches.push_back(m);
+          }
+        }
+        agreement.judged = agreement.num_testable >= options.min_testable;
+        agreement.agrees =
+            agreement.judged &&
+            agreement.num_agreeing >=
+                options.min_agreeing_share * agreement.num_testable;
+        result.push_back(agreement);
+      });
+  return result;
+}
+
+}  // namespace hisfm
