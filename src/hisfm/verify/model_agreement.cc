@@ -4,6 +4,7 @@
 #include <unordered_map>
 
 #include "hisfm/util/error.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/verify/camera_projection.h"
 
@@ -15,6 +16,7 @@ void ModelAgreementOptions::Check() const {
   ThrowUnless(min_agreeing_share >= 0.0 && min_agreeing_share <= 1.0,
               "model agreement: min_agreeing_share must be in [0, 1]");
   ThrowUnless(min_testable >= 1, "model agreement: min_testable must be >= 1");
+  ThrowUnless(num_threads >= 1, "model agreement: num_threads must be >= 1");
 }
 
 namespace {
@@ -54,6 +56,24 @@ Transfer TransferOne(const Reconstruction& model, const ImageView& from,
   return Transfer::kAgrees;
 }
 
+// Number of `points` (world) that project into `to`'s image, widened by its
+// max_error, stopping once `enough` are found.
+int CountSeen(const std::vector<Eigen::Vector3d>& points, const ImageView& to,
+              int enough) {
+  const double margin = -to.max_error;
+  int seen = 0;
+  for (const Eigen::Vector3d& x : points) {
+    const Eigen::Vector3d in_cam = to.image->cam_from_world * x;
+    if (in_cam.z() <= 1e-9) continue;
+    if (to.camera->InImage(to.camera->NormalizedToPixel(in_cam.hnormalized()),
+                           margin) &&
+        ++seen >= enough) {
+      break;
+    }
+  }
+  return seen;
+}
+
 }  // namespace
 
 std::vector<PairAgreement> JudgePairsAgainstModel(
@@ -80,8 +100,46 @@ std::vector<PairAgreement> JudgePairsAgainstModel(
       inside.push_back(pair);
     }
   }
+  // Each image's 3D points, for the bound on agreeing matches.
+  std::unordered_map<ImageId, std::vector<Eigen::Vector3d>> seen_points;
+  for (const auto& [id, image] : model.images) {
+    std::vector<Eigen::Vector3d>& points = seen_points[id];
+    for (const Point2D& p : image.points2D) {
+      if (p.point3D_id == kInvalidPoint3DId) continue;
+      const auto it = model.points3D.find(p.point3D_id);
+      if (it != model.points3D.end()) points.push_back(it->second.xyz);
+    }
+  }
+  const int needed = static_cast<int>(
+      std::ceil(options.min_agreeing_share * options.min_testable));
+  std::vector<char> can_agree(inside.size());
+  ParallelFor(
+      inside.size(), options.num_threads,
+      [&](size_t k) {
+        const ImagePair& pair = inside[k];
+        const int forward = CountSeen(seen_points.at(pair.image_id1),
+                                      views.at(pair.image_id2), needed);
+        const int backward =
+            forward >= needed
+                ? 0
+                : CountSeen(seen_points.at(pair.image_id2),
+                            views.at(pair.image_id1), needed - forward);
+        can_agree[k] = forward + backward >= needed;
+      },
+      256);
   std::vector<PairAgreement> result;
   result.reserve(inside.size());
+  std::vector<ImagePair> to_read;
+  for (size_t k = 0; k < inside.size(); ++k) {
+    if (can_agree[k]) {
+      to_read.push_back(inside[k]);
+    } else {
+      PairAgreement unjudged;
+      unjudged.pair = inside[k];
+      result.push_back(unjudged);
+    }
+  }
+  inside = std::move(to_read);
   database.ForEachInlierMatches(
       inside, [&](const ImagePair& pair, FeatureMatchSpan matches) {
         PairAgreement agreement;

@@ -29,6 +29,8 @@ struct ModelAgreementOptions {
   /// with a 3D point that projects in front of the other camera) are not
   /// judged.
   int min_testable = 10;
+  /// Threads that look for the pairs that cannot agree.
+  int num_threads = 2;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -54,8 +56,12 @@ struct PairAgreement {
 
 /// Judges the `pairs` that have both images registered in `model` (others
 /// are left out of the result), reading their inlier matches from
-/// `database`. The model's images must keep the database's keypoints as
-/// their points2D, as colmap's models do.
+/// `database`. A pair whose images cannot see enough of each other's 3D
+/// points to agree (fewer of them project into the other image, widened by
+/// max_transfer_error, than min_agreeing_share x min_testable) is returned
+/// unjudged without reading its matches: on a 1,000-image street that is
+/// nearly every pair. The model's images must keep the database's keypoints
+/// as their points2D, as colmap's models do.
 std::vector<PairAgreement> JudgePairsAgainstModel(
     const Database& database, const std::vector<ImagePair>& pairs,
     const Reconstruction& model, const ModelAgreementOptions& options);

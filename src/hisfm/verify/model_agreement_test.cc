@@ -24,9 +24,14 @@ Eigen::Vector3d PointXyz(int index) {
   return {-3.0 + 0.5 * (index % kColumns), 10.0, -1.0 + (index / kColumns)};
 }
 
-// Camera `k` stands at (k - 1, 0, 0) and looks along +y.
+// Camera `k` stands at (k - 1, 0, 0) and looks along +y; camera 6 stands at
+// (0, 0, 0) and looks the other way (it sees none of the facade).
 Rigid3d CamFromWorld(int k) {
   Eigen::Matrix3d R;
+  if (k == 6) {
+    R << -1, 0, 0, 0, 0, -1, 0, -1, 0;
+    return Rigid3d(Eigen::Quaterniond(R), Eigen::Vector3d::Zero());
+  }
   R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
   const Eigen::Vector3d center(k - 1.0, 0.0, 0.0);
   return Rigid3d(Eigen::Quaterniond(R), -(R * center));
@@ -61,7 +66,7 @@ void WriteScene(Scene* scene) {
   writer.WriteCamera(camera);
   scene->model.cameras[1] = {1, 1, kWidth, kHeight, camera.params};
   const int num_points = kColumns * kRows;
-  for (int k = 1; k <= 5; ++k) {
+  for (int k = 1; k <= 6; ++k) {
     writer.WriteImage({static_cast<ImageId>(k), "im" + std::to_string(k), 1});
     Keypoints keypoints(num_points, 2);
     Image image;
@@ -72,7 +77,8 @@ void WriteScene(Scene* scene) {
     for (int p = 0; p < num_points; ++p) {
       const Eigen::Vector2d uv = Project(k, p);
       keypoints.row(p) << static_cast<float>(uv.x()), static_cast<float>(uv.y());
-      image.points2D.push_back({uv, static_cast<Point3DId>(p + 1)});
+      image.points2D.push_back(
+          {uv, k == 6 ? kInvalidPoint3DId : static_cast<Point3DId>(p + 1)});
     }
     writer.WriteKeypoints(k, keypoints);
     if (k != 4) scene->model.images[k] = image;
@@ -107,6 +113,7 @@ void WriteScene(Scene* scene) {
   write(2, 3, 0, 3);
   write(2, 4, 0, 1000);
   write(3, 5, 4, 1000, 1);
+  write(1, 6, 0, 1000);
   writer.Close();
 }
 
@@ -115,7 +122,7 @@ std::map<ImagePair, PairAgreement> Judge(const Scene& scene,
   const Database db(scene.dir / "database.db");
   const std::vector<ImagePair> pairs = {ImagePair(1, 2), ImagePair(1, 3),
                                         ImagePair(2, 3), ImagePair(2, 4),
-                                        ImagePair(3, 5)};
+                                        ImagePair(3, 5), ImagePair(1, 6)};
   std::map<ImagePair, PairAgreement> by_pair;
   for (const PairAgreement& a :
        JudgePairsAgainstModel(db, pairs, scene.model, options)) {
@@ -128,7 +135,7 @@ TEST(ModelAgreement, TrueMatchesAgreeAndAShiftedPatternDoesNot) {
   Scene scene;
   WriteScene(&scene);
   const auto judged = Judge(scene, ModelAgreementOptions());
-  ASSERT_EQ(judged.size(), 4u) << "the pair with image 4 is left out";
+  ASSERT_EQ(judged.size(), 5u) << "the pair with image 4 is left out";
 
   const PairAgreement& truth = judged.at(ImagePair(1, 2));
   EXPECT_EQ(truth.num_testable, 2 * kColumns * kRows);
@@ -153,6 +160,13 @@ TEST(ModelAgreement, TrueMatchesAgreeAndAShiftedPatternDoesNot) {
     EXPECT_EQ(m.idx1, m.idx2);
     EXPECT_GE(m.idx1, static_cast<Point2DIdx>(kColumns));
   }
+
+  // Image 6 looks away: its pair cannot agree and is left unjudged (its
+  // matches are not read).
+  const PairAgreement& away = judged.at(ImagePair(1, 6));
+  EXPECT_EQ(away.num_testable, 0);
+  EXPECT_FALSE(away.judged);
+  EXPECT_FALSE(away.agrees);
 
   const PairAgreement& few = judged.at(ImagePair(2, 3));
   EXPECT_EQ(few.num_testable, 6);
