@@ -201,6 +201,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "the bridges (beyond it, bridges are read when asked for)");
   visit("--HiSfM.verifier_batch_size", o->verifier.command_batch_size,
         "Bridges per call of a command verifier");
+  visit("--HiSfM.attach_refine_focal_length", o->attach_refine_focal_length,
+        "Attach run: refine focal lengths (the sequence pass's chain does "
+        "not)");
   visit("--HiSfM.attach_local_only", o->attach_local_only,
         "Attach leaves with local bundle adjustment only, then one "
         "global bundle adjustment");

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <random>
 
 #include "hisfm/util/error.h"
@@ -11,23 +10,24 @@
 namespace hisfm {
 
 void SequenceOptions::Check() const {
-  ThrowUnless(mode == "auto" || mode == "on" || mode == "off",
-              StrCat("sequence prior: mode must be auto, on or off, not '",
-                     mode, "'"));
-  ThrowUnless(min_consecutive_share >= 0.0 && min_consecutive_share <= 1.0,
-              "sequence prior: min_consecutive_share must be in [0, 1]");
-  ThrowUnless(std::isfinite(min_z_score),
-              "sequence prior: min_z_score must be finite");
-  ThrowUnless(num_permutations >= 10,
-              "sequence prior: num_permutations must be at least 10");
-  ThrowUnless(break_ratio >= 0.0 && break_ratio <= 1.0,
-              "sequence prior: break_ratio must be in [0, 1]");
-  ThrowUnless(break_window >= 1, "sequence prior: break_window must be >= 1");
+  HISFM_CHECK_OPTION(mode, mode == "auto" || mode == "on" || mode == "off",
+                     "auto, on or off");
+  HISFM_CHECK_OPTION(min_consecutive_share,
+                     min_consecutive_share >= 0.0 && min_consecutive_share <= 1.0,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(min_z_score, std::isfinite(min_z_score), "finite");
+  HISFM_CHECK_OPTION(num_permutations, num_permutations >= 10, ">= 10");
+  HISFM_CHECK_OPTION(break_ratio, break_ratio >= 0.0 && break_ratio <= 1.0,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(break_window, break_window >= 1, ">= 1");
 }
 
 namespace {
 
-// Inliers summed over the consecutive pairs of `order` (dense indices).
+// Seed of the permutation test's shuffles (the test is deterministic).
+constexpr uint32_t kPermutationSeed = 20261206;
+
+// Inliers summed over the consecutive pairs of `order` (image ids).
 double ConsecutiveWeight(const ViewGraph& graph,
                          const std::vector<ImageId>& order) {
   double sum = 0.0;
@@ -78,7 +78,7 @@ SequenceChain FindSequenceChain(
 
   if (n >= 3) {
     const double observed = ConsecutiveWeight(graph, chain.order);
-    std::mt19937 rng(20261206);
+    std::mt19937 rng(kPermutationSeed);
     std::vector<ImageId> shuffled = chain.order;
     double sum = 0.0, sum_sq = 0.0;
     for (int p = 0; p < options.num_permutations; ++p) {

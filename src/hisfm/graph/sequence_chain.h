@@ -56,7 +56,8 @@ struct SequenceOptions {
 
 /// What FindSequenceChain found.
 struct SequenceChain {
-  /// True when the prior applies (mode "on", or "auto" and both tests pass).
+  /// True when the prior applies (mode "on", or "auto" and both tests pass;
+  /// never with fewer than 2 images).
   bool applies = false;
   /// Images in name order (every image of the graph).
   std::vector<ImageId> order;

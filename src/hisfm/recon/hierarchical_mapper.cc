@@ -100,6 +100,7 @@ struct LoadedInput {
   nlohmann::json pair_filter;
   /// The sequence pass's summary (null when it was not asked for).
   nlohmann::json sequence;
+  /// Wall time of the sequence pass.
   double sequence_seconds = 0;
   /// The builtin multi-view verifier's outcome (verified_hierarchy.h):
   /// cleaned inliers of the hierarchy's edges, and counts.
@@ -1185,12 +1186,12 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       num_input_pairs = pass.num_input_pairs;
     }
     sequence = pass.ToJson();
+    if (pass.ran) sequence["chain_written"] = false;
     sequence_seconds = pass.seconds;
   }
   ThrowIfInterrupted();
   LoadedInput in =
       LoadAndBuildHierarchy(database_path, paths.image_path, options);
-  in.sequence = sequence;
   in.sequence_seconds = sequence_seconds;
   // The summary counts the input's pairs, not the cleaned copy's.
   if (num_input_pairs > 0) in.num_verified_pairs = num_input_pairs;
@@ -1255,14 +1256,21 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   // images in one model than the chain did (the chain's models were joined
   // through every verified pair between them, the hierarchy's only through
   // its own edges), the chain's models are the result.
+  size_t chain_registered = 0;
+  for (const Reconstruction& model : pass.chain_models) {
+    chain_registered += model.NumRegImages();
+  }
   if (!pass.chain_models.empty() &&
-      pass.chain_models[0].NumRegImages() > largest_registered) {
+      pass.chain_models[0].NumRegImages() > largest_registered &&
+      chain_registered >= num_registered) {
     HISFM_LOG_WARN(
         "the hierarchy's largest model registers {} images, the capture "
         "sequence's chain {}: writing the chain's models instead",
         largest_registered, pass.chain_models[0].NumRegImages());
     for (size_t i = 0; i < model_index; ++i) {
-      fs::remove_all(StrCat(output.path(), "/", i), ec);
+      const std::string dir = StrCat(output.path(), "/", i);
+      fs::remove_all(dir, ec);
+      ThrowUnless(!ec, StrCat("cannot remove ", dir, ": ", ec.message()));
     }
     models = nlohmann::json::array();
     separate.clear();
@@ -1274,6 +1282,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       WriteModelBinary(model, model_dir);
       num_registered += model.NumRegImages();
       nlohmann::json stats = ModelStats(model);
+      stats["component_images"] = model.NumRegImages();
+      stats["scaffold_images"] = 0;
+      stats["scaffold_registered"] = 0;
       stats["path"] = std::to_string(model_index++);
       stats["sequence_chain"] = true;
       models.push_back(stats);

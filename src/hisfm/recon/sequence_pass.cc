@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <filesystem>
 #include <set>
+#include <unordered_map>
 
+#include "hisfm/io/database.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
@@ -31,7 +33,7 @@ nlohmann::json SequencePassResult::ToJson() const {
           {"models", num_models},
           {"joined", num_joined},
           {"registered", num_registered},
-          {"pairs_judged", num_judged},
+          {"pairs_inside_models", num_judged},
           {"pairs_removed", num_removed},
           {"matches_removed", num_matches_removed},
           {"note", note},
@@ -104,6 +106,51 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
   return left;
 }
 
+// Joins the chain's models, judges every pair inside them and writes the
+// cleaned database; fills the result's counts and path.
+void CleanPairs(const Database& database, const std::string& database_path,
+                const ViewGraph& graph, const std::string& work_path,
+                const SequencePassOptions& options,
+                std::vector<Reconstruction>* models,
+                SequencePassResult* result) {
+  *models = JoinChainModels(database, graph, std::move(*models), options.join,
+                            &result->num_joined);
+  // Pairs inside a model keep their agreeing matches or go (those with too
+  // few testable matches too: the chain holds both images and gives no
+  // reason to trust them); the others stay as they are.
+  const std::vector<ImagePair> pairs = graph.Pairs();
+  std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
+      cleaned;
+  std::set<ImagePair> removed;
+  for (const Reconstruction& model : *models) {
+    result->num_registered += model.NumRegImages();
+    for (PairAgreement& a :
+         JudgePairsAgainstModel(database, pairs, model, options.agreement)) {
+      ++result->num_judged;
+      const size_t before = graph.Weight(a.pair.image_id1, a.pair.image_id2);
+      if (!a.agrees) {
+        removed.insert(a.pair);
+        result->num_matches_removed += before;
+        continue;
+      }
+      result->num_matches_removed += before - a.agreeing_matches.size();
+      cleaned[a.pair] = std::move(a.agreeing_matches);
+    }
+  }
+  result->num_removed = removed.size();
+  std::vector<ImagePair> keep;
+  for (const ImagePair& pair : pairs) {
+    if (!removed.count(pair)) keep.push_back(pair);
+  }
+  FilteredDatabaseOptions write;
+  write.replace_inliers = &cleaned;
+  const std::string cleaned_path = work_path + "/cleaned.db";
+  std::error_code ec;
+  fs::remove(cleaned_path, ec);
+  WriteFilteredDatabase(database_path, cleaned_path, keep, write);
+  result->cleaned_database_path = cleaned_path;
+}
+
 }  // namespace
 
 SequencePassResult RunSequencePass(const std::string& database_path,
@@ -158,41 +205,22 @@ SequencePassResult RunSequencePass(const std::string& database_path,
     return stop(StrCat("the chain could not be reconstructed: ", e.what()));
   }
   result.num_models = models.size();
-  models = JoinChainModels(database, graph, std::move(models), options.join,
-                           &result.num_joined);
-
-  // Pairs inside a model keep their agreeing matches or go; the others
-  // stay as they are.
-  const std::vector<ImagePair> pairs = graph.Pairs();
-  std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>
-      cleaned;
-  std::set<ImagePair> removed;
-  for (const Reconstruction& model : models) {
-    result.num_registered += model.NumRegImages();
-    for (PairAgreement& a :
-         JudgePairsAgainstModel(database, pairs, model, options.agreement)) {
-      ++result.num_judged;
-      const size_t before = graph.Weight(a.pair.image_id1, a.pair.image_id2);
-      if (!a.agrees) {
-        removed.insert(a.pair);
-        result.num_matches_removed += before;
-        continue;
-      }
-      result.num_matches_removed += before - a.agreeing_matches.size();
-      cleaned[a.pair] = std::move(a.agreeing_matches);
-    }
+  // Whatever fails from here leaves the input as it is, as a failing chain
+  // does: the mapper goes on without the pass.
+  try {
+    CleanPairs(database, database_path, graph, work_path, options, &models,
+               &result);
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("sequence: the pairs could not be checked ({}); no pair "
+                   "removed",
+                   e.what());
+    result.cleaned_database_path.clear();
+    result.num_registered = result.num_judged = result.num_removed = 0;
+    result.num_matches_removed = 0;
+    return stop(StrCat("the pairs could not be checked: ", e.what()));
   }
-  result.num_removed = removed.size();
-  std::vector<ImagePair> keep;
-  for (const ImagePair& pair : pairs) {
-    if (!removed.count(pair)) keep.push_back(pair);
-  }
-  FilteredDatabaseOptions write;
-  write.replace_inliers = &cleaned;
-  result.cleaned_database_path = work_path + "/cleaned.db";
-  fs::remove(result.cleaned_database_path, ec);
-  WriteFilteredDatabase(database_path, result.cleaned_database_path, keep,
-                        write);
   result.chain_models = std::move(models);
   result.ran = true;
   result.seconds = timer.ElapsedSeconds();

@@ -52,6 +52,7 @@ struct SequencePassOptions {
 
 /// What the pass did.
 struct SequencePassResult {
+  /// The name order, its tests and the chain's links.
   SequenceChain chain;
   /// True when the chain was reconstructed and pairs were judged.
   bool ran = false;
@@ -72,10 +73,13 @@ struct SequencePassResult {
   std::string cleaned_database_path;
   /// The chain's models after the joins, the largest first (empty when the
   /// pass did not run). The mapper writes them instead of its own when its
-  /// largest model registers fewer images than the first of them.
+  /// largest model registers fewer images than the first of them and its
+  /// models no more images in all (the joins are not refined by a further
+  /// bundle adjustment).
   std::vector<Reconstruction> chain_models;
   /// Why the pass did not run or stopped early ("" if it ran).
   std::string note;
+  /// Wall time of the pass, the chain's reconstruction included.
   double seconds = 0.0;
 
   /// The summary's "sequence" entry.

@@ -11,15 +11,20 @@
 namespace hisfm {
 
 void ModelAgreementOptions::Check() const {
-  ThrowUnless(max_transfer_error > 0.0,
-              "model agreement: max_transfer_error must be positive");
-  ThrowUnless(min_agreeing_share >= 0.0 && min_agreeing_share <= 1.0,
-              "model agreement: min_agreeing_share must be in [0, 1]");
-  ThrowUnless(min_testable >= 1, "model agreement: min_testable must be >= 1");
-  ThrowUnless(num_threads >= 1, "model agreement: num_threads must be >= 1");
+  HISFM_CHECK_OPTION(max_transfer_error, max_transfer_error > 0.0, "> 0");
+  HISFM_CHECK_OPTION(min_agreeing_share,
+                     min_agreeing_share >= 0.0 && min_agreeing_share <= 1.0,
+                     "in [0, 1]");
+  HISFM_CHECK_OPTION(min_testable, min_testable >= 1, ">= 1");
+  HISFM_CHECK_OPTION(num_threads, num_threads >= 1, ">= 1");
 }
 
 namespace {
+
+// Depth (model units) in front of a camera below which a point is behind it.
+constexpr double kMinDepth = 1e-9;
+// Pairs per block of the parallel visibility bound.
+constexpr size_t kPairsPerBlock = 256;
 
 struct ImageView {
   const Image* image = nullptr;
@@ -45,7 +50,7 @@ Transfer TransferOne(const Reconstruction& model, const ImageView& from,
   const auto it = model.points3D.find(id);
   if (it == model.points3D.end()) return Transfer::kUntestable;
   const Eigen::Vector3d in_cam = to.image->cam_from_world * it->second.xyz;
-  if (in_cam.z() <= 1e-9) return Transfer::kUntestable;
+  if (in_cam.z() <= kMinDepth) return Transfer::kUntestable;
   ++agreement->num_testable;
   const Eigen::Vector2d uv =
       to.camera->NormalizedToPixel(in_cam.hnormalized());
@@ -57,14 +62,16 @@ Transfer TransferOne(const Reconstruction& model, const ImageView& from,
 }
 
 // Number of `points` (world) that project into `to`'s image, widened by its
-// max_error, stopping once `enough` are found.
+// max_error, stopping once `enough` are found. A bound on a pair's agreeing
+// transfers as long as no keypoint takes part in two of its matches, which
+// colmap's cross-checked matching ensures.
 int CountSeen(const std::vector<Eigen::Vector3d>& points, const ImageView& to,
               int enough) {
   const double margin = -to.max_error;
   int seen = 0;
   for (const Eigen::Vector3d& x : points) {
     const Eigen::Vector3d in_cam = to.image->cam_from_world * x;
-    if (in_cam.z() <= 1e-9) continue;
+    if (in_cam.z() <= kMinDepth) continue;
     if (to.camera->InImage(to.camera->NormalizedToPixel(in_cam.hnormalized()),
                            margin) &&
         ++seen >= enough) {
@@ -126,7 +133,7 @@ std::vector<PairAgreement> JudgePairsAgainstModel(
                             views.at(pair.image_id1), needed - forward);
         can_agree[k] = forward + backward >= needed;
       },
-      256);
+      kPairsPerBlock);
   std::vector<PairAgreement> result;
   result.reserve(inside.size());
   std::vector<ImagePair> to_read;

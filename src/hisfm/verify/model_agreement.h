@@ -38,6 +38,7 @@ struct ModelAgreementOptions {
 
 /// The transfer test of one pair.
 struct PairAgreement {
+  /// The pair judged.
   ImagePair pair;
   /// Matches with a 3D point that projects in front of the other camera
   /// (each direction counted).
