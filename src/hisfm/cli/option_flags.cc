@@ -44,6 +44,8 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.sequence_min_agreeing_share",
         seq.agreement.min_agreeing_share,
         "A pair is removed when fewer of its matches agree with the chain");
+  visit("--HiSfM.sequence_require_one_model", seq.require_one_model,
+        "Clean the pairs only when the chain's pieces join into one model");
   visit("--HiSfM.top_k", h.communities.top_k,
         "Strongest neighbours kept per image to form communities (k)");
   visit("--HiSfM.num_trees", h.skeleton.num_trees,

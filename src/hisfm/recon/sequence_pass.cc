@@ -107,14 +107,20 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
 }
 
 // Joins the chain's models, judges every pair inside them and writes the
-// cleaned database; fills the result's counts and path.
-void CleanPairs(const Database& database, const std::string& database_path,
+// cleaned database; fills the result's counts and path. Returns false (and
+// sets the note) when require_one_model finds several models left.
+bool CleanPairs(const Database& database, const std::string& database_path,
                 const ViewGraph& graph, const std::string& work_path,
                 const SequencePassOptions& options,
                 std::vector<Reconstruction>* models,
                 SequencePassResult* result) {
   *models = JoinChainModels(database, graph, std::move(*models), options.join,
                             &result->num_joined);
+  if (options.require_one_model && models->size() > 1) {
+    result->note = StrCat("the chain's ", models->size(),
+                          " pieces could not be joined into one model");
+    return false;
+  }
   // Pairs inside a model keep their agreeing matches or go (those with too
   // few testable matches too: the chain holds both images and gives no
   // reason to trust them); the others stay as they are.
@@ -149,6 +155,7 @@ void CleanPairs(const Database& database, const std::string& database_path,
   fs::remove(cleaned_path, ec);
   WriteFilteredDatabase(database_path, cleaned_path, keep, write);
   result->cleaned_database_path = cleaned_path;
+  return true;
 }
 
 }  // namespace
@@ -208,8 +215,11 @@ SequencePassResult RunSequencePass(const std::string& database_path,
   // Whatever fails from here leaves the input as it is, as a failing chain
   // does: the mapper goes on without the pass.
   try {
-    CleanPairs(database, database_path, graph, work_path, options, &models,
-               &result);
+    if (!CleanPairs(database, database_path, graph, work_path, options,
+                    &models, &result)) {
+      HISFM_LOG_WARN("sequence: {}; no pair removed", result.note);
+      return stop(result.note);
+    }
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {

@@ -39,6 +39,14 @@ struct SequencePassOptions {
   /// verified pair between two stretches of a repeated street votes here,
   /// doppelgangers included, where the mapper's join sees only the
   /// hierarchy's edges.
+  /// Clean only when the chain's pieces were joined into one model. Where
+  /// they could not be (two streets whose chain breaks where the capture
+  /// jumps, and whose pairs agree on no one similarity), how the pieces
+  /// relate is left to the hierarchy on the input's pairs: cleaning inside
+  /// the pieces alone left crossing_streets_150_s3 folded and s5 and s8
+  /// split in two (tuning and held-out; docs/decisions.md, twenty-first
+  /// session).
+  bool require_one_model = true;
   ModelMergeOptions join = [] {
     ModelMergeOptions options;
     options.min_inlier_ratio = 0.2;
