@@ -29,7 +29,9 @@ echo "==> Test suite under ASan/UBSan"
 # Except the end-to-end runs on the shared real scenes (feature extraction,
 # matching, verification of every pair and mapping of real photos; 5 to 15
 # minutes each under the sanitizers): scripts/test.sh runs them, and the code
-# of hisfm they reach runs here in the synthetic pipeline tests. Likewise two
+# of hisfm they reach runs here in the synthetic pipeline tests (the sequence
+# pass of the oats test in SequencePassUnfoldsARepeatedStreet and
+# RegistersAllCupImages, and in sequence_pass_test). Likewise two
 # synthetic end-to-end tests, 10 and 5 minutes each here:
 # - MergesSubModelsAndReseedsWhatTheAttachLeaves (150 images): the merge
 #   itself runs here in model_merge_test, the re-seeding and a refused merge
@@ -39,7 +41,7 @@ echo "==> Test suite under ASan/UBSan"
 #   trusted edges runs here in PlugInVerifierScoresSupportEdges, its
 #   rejections in trusted_edges_test and verified_hierarchy_test.
 ctest --output-on-failure -j2 --timeout 1800 -LE fuzz \
-  -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrect(WhereColmapFolds|AtThePapersTau)|HierarchicalMapper\.(MergesSubModelsAndReseedsWhatTheAttachLeaves|PlugInVerifierJudgesTheTrustedEdges)|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
+  -E 'ReconstructSlurm\.BooksGivesTheLocalDatabase|HierarchicalMapper\.(Cup|Books|FacadeStreet60)IsCorrect(WhereColmapFolds|AtThePapersTau)|HierarchicalMapper\.OatsAgreesWithItsConsecutivePhotos|HierarchicalMapper\.(MergesSubModelsAndReseedsWhatTheAttachLeaves|PlugInVerifierJudgesTheTrustedEdges)|ExhaustiveFilter\.DropsRejectedPairsAndKeepsTheInput|ReconstructionReport\.BooksPhotosToReport'
 tested=$(date +%s)
 
 echo "==> Fuzzing, ${FUZZ_SECONDS} s per target"
