@@ -1171,30 +1171,24 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
         return ReadNumberedModels(chain_paths.output_path);
       };
   // The rest reads the cleaned database when the pass ran.
-  std::string database_path = paths.database_path;
-  nlohmann::json sequence;
-  double sequence_seconds = 0.0;
-  size_t num_input_pairs = 0;
   SequencePassResult pass;
+  nlohmann::json sequence;
   if (options.sequence.sequence.mode != "off") {
     LogHeading("Checking the pairs against the capture sequence");
     pass =
         RunSequencePass(paths.database_path, options.min_num_matches,
                         sequence_work, reconstruct_chain, options.sequence);
-    if (pass.ran) {
-      database_path = pass.cleaned_database_path;
-      num_input_pairs = pass.num_input_pairs;
-    }
     sequence = pass.ToJson();
     if (pass.ran) sequence["chain_written"] = false;
-    sequence_seconds = pass.seconds;
   }
+  const std::string database_path =
+      pass.ran ? pass.cleaned_database_path : paths.database_path;
   ThrowIfInterrupted();
   LoadedInput in =
       LoadAndBuildHierarchy(database_path, paths.image_path, options);
-  in.sequence_seconds = sequence_seconds;
+  in.sequence_seconds = pass.seconds;
   // The summary counts the input's pairs, not the cleaned copy's.
-  if (num_input_pairs > 0) in.num_verified_pairs = num_input_pairs;
+  if (pass.ran) in.num_verified_pairs = pass.num_input_pairs;
   const Hierarchy& h = in.hierarchy;
 
   WriteViewGraphJson(in, work + "/view_graph.json");
