@@ -46,6 +46,13 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "A pair is removed when fewer of its matches agree with the chain");
   visit("--HiSfM.sequence_require_one_model", seq.require_one_model,
         "Clean the pairs only when the chain's pieces join into one model");
+  visit("--HiSfM.sequence_join_by_conflict", seq.join_by_conflict,
+        "Join the chain's pieces that their pairs cannot join by the "
+        "proposed join that conflicts least with their unique points");
+  visit("--HiSfM.sequence_min_unique_found_share",
+        seq.conflict_join.min_found_share,
+        "A join by conflict needs its pairs to match this share of the "
+        "unique points it predicts");
   visit("--HiSfM.top_k", h.communities.top_k,
         "Strongest neighbours kept per image to form communities (k)");
   visit("--HiSfM.num_trees", h.skeleton.num_trees,

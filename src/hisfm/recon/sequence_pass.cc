@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <set>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "hisfm/io/database.h"
 #include "hisfm/util/error.h"
@@ -11,6 +12,7 @@
 #include "hisfm/util/logging.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
+#include "hisfm/verify/unique_points.h"
 #include "hisfm/verify/view_graph_reader.h"
 
 namespace hisfm {
@@ -20,6 +22,8 @@ namespace fs = std::filesystem;
 void SequencePassOptions::Check() const {
   sequence.Check();
   agreement.Check();
+  unique_points.Check();
+  conflict_join.Check();
   join.Check();
 }
 
@@ -32,6 +36,7 @@ nlohmann::json SequencePassResult::ToJson() const {
           {"ran", ran},
           {"models", num_models},
           {"joined", num_joined},
+          {"joined_by_conflict", num_joined_by_conflict},
           {"registered", num_registered},
           {"pairs_inside_models", num_judged},
           {"pairs_removed", num_removed},
@@ -66,44 +71,93 @@ std::vector<PairMatches> PairsAcross(const Database& database,
   return out;
 }
 
-// Joins the models into the largest while any join succeeds; returns the
-// models left (the largest, grown, first) and counts the joins.
-std::vector<Reconstruction> JoinChainModels(const Database& database,
-                                            const ViewGraph& graph,
-                                            std::vector<Reconstruction> models,
-                                            const ModelMergeOptions& options,
-                                            size_t* num_joined) {
-  if (models.empty()) return models;
-  std::swap(models[0], models[LargestModelIndex(models)]);
-  Reconstruction base = std::move(models[0]);
-  std::vector<Reconstruction> rest(std::make_move_iterator(models.begin() + 1),
-                                   std::make_move_iterator(models.end()));
-  std::vector<bool> joined(rest.size(), false);
-  for (bool progress = true; progress;) {
-    progress = false;
-    for (size_t i = 0; i < rest.size(); ++i) {
-      if (joined[i]) continue;
-      const ModelMergeStep step = MergeThroughMatches(
-          rest[i], PairsAcross(database, graph, base, rest[i]), options,
-          &base);
-      HISFM_LOG_INFO(
-          "sequence: {} a chain model of {} images through {} pair(s): {} of "
-          "{} matched points agree",
-          step.merged ? "joined" : "could not join", step.num_images,
-          step.num_pairs, step.num_inliers, step.num_correspondences);
-      if (step.merged) {
-        joined[i] = true;
-        progress = true;
-        ++*num_joined;
-      }
-    }
-  }
+// The base, then the models of `rest` not joined into it.
+std::vector<Reconstruction> LeftModels(Reconstruction base,
+                                       std::vector<Reconstruction> rest,
+                                       const std::vector<bool>& joined) {
   std::vector<Reconstruction> left;
   left.push_back(std::move(base));
   for (size_t i = 0; i < rest.size(); ++i) {
     if (!joined[i]) left.push_back(std::move(rest[i]));
   }
   return left;
+}
+
+// Joins the models into the largest while any join succeeds; returns the
+// models left (the largest, grown, first) and counts the joins. Models left
+// apart by the joins through all their pairs are then tried by the conflict
+// of proposed joins with their unique points (join_by_conflict).
+std::vector<Reconstruction> JoinChainModels(const Database& database,
+                                            const ViewGraph& graph,
+                                            std::vector<Reconstruction> models,
+                                            const SequencePassOptions& options,
+                                            SequencePassResult* result) {
+  if (models.empty()) return models;
+  std::swap(models[0], models[LargestModelIndex(models)]);
+  Reconstruction base = std::move(models[0]);
+  std::vector<Reconstruction> rest(std::make_move_iterator(models.begin() + 1),
+                                   std::make_move_iterator(models.end()));
+  std::vector<bool> joined(rest.size(), false);
+  // Joins what it can, rest[i] by `join(i)`, until no join succeeds.
+  auto join_all = [&](auto&& join) {
+    size_t count = 0;
+    for (bool progress = true; progress;) {
+      progress = false;
+      for (size_t i = 0; i < rest.size(); ++i) {
+        if (joined[i] || !join(i)) continue;
+        joined[i] = true;
+        progress = true;
+        ++count;
+      }
+    }
+    return count;
+  };
+  result->num_joined += join_all([&](size_t i) {
+    const ModelMergeStep step = MergeThroughMatches(
+        rest[i], PairsAcross(database, graph, base, rest[i]), options.join,
+        &base);
+    HISFM_LOG_INFO(
+        "sequence: {} a chain model of {} images through {} pair(s): {} of "
+        "{} matched points agree",
+        step.merged ? "joined" : "could not join", step.num_images,
+        step.num_pairs, step.num_inliers, step.num_correspondences);
+    return step.merged;
+  });
+  if (!options.join_by_conflict ||
+      std::find(joined.begin(), joined.end(), false) == joined.end()) {
+    return LeftModels(std::move(base), std::move(rest), joined);
+  }
+  const std::vector<ImagePair> pairs = graph.Pairs();
+  std::vector<std::unordered_set<Point3DId>> confusing(rest.size());
+  for (size_t i = 0; i < rest.size(); ++i) {
+    if (!joined[i]) {
+      confusing[i] = FindConfusingPoints(database, pairs, rest[i],
+                                         options.unique_points);
+    }
+  }
+  std::unordered_set<Point3DId> base_confusing;
+  size_t base_images = 0;  // the base's size when base_confusing was found
+  const size_t count = join_all([&](size_t i) {
+    if (base_images != base.NumRegImages()) {
+      base_confusing =
+          FindConfusingPoints(database, pairs, base, options.unique_points);
+      base_images = base.NumRegImages();
+    }
+    const ConflictJoinStep step = JoinByLeastConflict(
+        rest[i], PairsAcross(database, graph, base, rest[i]), base_confusing,
+        confusing[i], options.conflict_join, options.join, &base);
+    HISFM_LOG_INFO(
+        "sequence: {} a chain model of {} images by conflict: {} pairs "
+        "propose joins, {} examined; the best has {} voting pairs, whose "
+        "photos match {} of the {} unique points it predicts",
+        step.merge.merged ? "joined" : "could not join",
+        step.merge.num_images, step.num_fitted_pairs, step.num_hypotheses,
+        step.num_votes, step.num_found, step.num_expected);
+    return step.merge.merged;
+  });
+  result->num_joined += count;
+  result->num_joined_by_conflict += count;
+  return LeftModels(std::move(base), std::move(rest), joined);
 }
 
 // Joins the chain's models, judges every pair inside them and writes the
@@ -114,8 +168,8 @@ bool CleanPairs(const Database& database, const std::string& database_path,
                 const SequencePassOptions& options,
                 std::vector<Reconstruction>* models,
                 SequencePassResult* result) {
-  *models = JoinChainModels(database, graph, std::move(*models), options.join,
-                            &result->num_joined);
+  *models = JoinChainModels(database, graph, std::move(*models), options,
+                            result);
   if (options.require_one_model && models->size() > 1) {
     result->note = StrCat("the chain's ", models->size(),
                           " pieces could not be joined into one model");

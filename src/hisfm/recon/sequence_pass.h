@@ -24,8 +24,10 @@
 
 #include "hisfm/graph/sequence_chain.h"
 #include "hisfm/io/model.h"
+#include "hisfm/recon/conflict_join.h"
 #include "hisfm/recon/model_merge.h"
 #include "hisfm/verify/model_agreement.h"
+#include "hisfm/verify/unique_points.h"
 
 namespace hisfm {
 
@@ -34,11 +36,6 @@ struct SequencePassOptions {
   SequenceOptions sequence;
   /// The transfer test of each pair against the chain's models.
   ModelAgreementOptions agreement;
-  /// How the chain's models are joined through the pairs between them. The
-  /// share of agreeing points is lower than the mapper's join (0.5): every
-  /// verified pair between two stretches of a repeated street votes here,
-  /// doppelgangers included, where the mapper's join sees only the
-  /// hierarchy's edges.
   /// Clean only when the chain's pieces were joined into one model. Where
   /// they could not be (two streets whose chain breaks where the capture
   /// jumps, and whose pairs agree on no one similarity), how the pieces
@@ -47,6 +44,25 @@ struct SequencePassOptions {
   /// split in two (tuning and held-out; docs/decisions.md, twenty-first
   /// session).
   bool require_one_model = true;
+  /// Models that the pairs between them cannot join (their doppelgangers
+  /// outvote the true pairs) are joined by the proposal that conflicts
+  /// least with their unique points, if it clears conflict_join's bars
+  /// (recon/conflict_join.h). On crossing_streets_1000_s3 (tuning) the two
+  /// streets' pieces gave 1,059,179 matched points whose best similarity
+  /// laid one street onto the other (90 degrees off, 3,087 agreeing); the
+  /// true join had 879, and 145 pairs voted for it against 1,000 to 1,135
+  /// for each of the leading wrong ones (docs/decisions.md, twenty-second
+  /// session).
+  bool join_by_conflict = true;
+  /// Which points of a chain model are unique (join_by_conflict).
+  UniquePointOptions unique_points;
+  /// The bars of a join by conflict.
+  ConflictJoinOptions conflict_join;
+  /// How the chain's models are joined through the pairs between them. The
+  /// share of agreeing points is lower than the mapper's join (0.5): every
+  /// verified pair between two stretches of a repeated street votes here,
+  /// doppelgangers included, where the mapper's join sees only the
+  /// hierarchy's edges.
   ModelMergeOptions join = [] {
     ModelMergeOptions options;
     options.min_inlier_ratio = 0.2;
@@ -69,6 +85,8 @@ struct SequencePassResult {
   /// The chain's models, and how many of them were joined into others.
   size_t num_models = 0;
   size_t num_joined = 0;
+  /// Of those, the models joined by conflict (join_by_conflict).
+  size_t num_joined_by_conflict = 0;
   /// Images the chain's models registered.
   size_t num_registered = 0;
   /// Pairs with both images in one chain model, those removed (they

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <random>
 
+#include "hisfm/eval/similarity_alignment.h"
 #include "hisfm/io/database_writer.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/file_util.h"
@@ -128,6 +129,178 @@ TEST(SequencePass, NoChainModelKeepsEveryPair) {
       ReadViewGraph(Database(result.cleaned_database_path), 15);
   EXPECT_EQ(cleaned.Edges().size(), input.Edges().size());
   EXPECT_EQ(cleaned.Weight(1, 5), input.Weight(1, 5));
+}
+
+// Two streets' pieces (images 1-4 and 5-8, in frames a similarity apart)
+// share 40 unique points and a facade pattern of 3 rows x 20 columns. Their
+// verified pairs match the unique points truly (pair 4-5) and the pattern
+// shifted by 1 to 6 columns (six pairs, one shift each): no similarity has
+// 20% of the matched points, so the pairs cannot join the pieces. Inside
+// each piece three pairs match the pattern 4 or 8 columns apart, which makes
+// the pattern's points confusing. Each shifted pair proposes a join under
+// which its photos should match unique points they do not; the true pair's
+// join predicts only unique points it matches.
+constexpr int kColumns = 20, kRows = 3, kUnique = 40;
+constexpr int kNumPoints = kColumns * kRows + kUnique;
+
+Eigen::Vector3d StreetPoint(int p) {
+  if (p < kColumns * kRows) {
+    return {2.5 * (p % kColumns), 10.0, -1.0 + (p / kColumns)};
+  }
+  std::mt19937 rng(p);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  return {15.0 * u(rng), 8.0 + 4.0 * u(rng), -1.5 + 3.0 * u(rng)};
+}
+
+int PatternPoint(int column, int row) { return row * kColumns + column; }
+
+Rigid3d StreetCamera(int k) {
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  const Eigen::Vector3d center(1.0 + 2.0 * ((k - 1) % 4), 0.0, 0.0);
+  return Rigid3d(Eigen::Quaterniond(R), -(R * center));
+}
+
+// The similarity from the world to the second piece's frame.
+Sim3d SecondFromWorld() {
+  Sim3d s;
+  s.scale = 2.0;
+  s.rotation = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ());
+  s.translation = Eigen::Vector3d(5.0, 3.0, 1.0);
+  return s;
+}
+
+struct TwoStreets {
+  std::vector<Reconstruction> pieces;
+};
+
+TwoStreets WriteTwoStreetsDatabase(const std::string& path) {
+  constexpr double kFocal = 800.0;
+  DatabaseWriter writer(path);
+  writer.WriteCamera(SimplePinholeCamera(1, 1024, 768, kFocal));
+  TwoStreets streets;
+  streets.pieces.resize(2);
+  for (Reconstruction& piece : streets.pieces) {
+    piece.cameras[1] = {1, 0, 1024, 768, {kFocal, 512.0, 384.0}};
+  }
+  const Sim3d second_from_world = SecondFromWorld();
+  for (ImageId id = 1; id <= 8; ++id) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06u.jpg", id);
+    writer.WriteImage({id, name, 1});
+    const Rigid3d cam_from_world = StreetCamera(id);
+    Keypoints keypoints(kNumPoints, 2);
+    Image image;
+    image.image_id = id;
+    image.camera_id = 1;
+    image.name = name;
+    image.cam_from_world = id <= 4
+                               ? cam_from_world
+                               : second_from_world.TransformPose(cam_from_world);
+    for (int p = 0; p < kNumPoints; ++p) {
+      const Eigen::Vector3d x = cam_from_world * StreetPoint(p);
+      const Eigen::Vector2d uv(kFocal * x.x() / x.z() + 512.0,
+                               kFocal * x.y() / x.z() + 384.0);
+      keypoints.row(p) << static_cast<float>(uv.x()),
+          static_cast<float>(uv.y());
+      image.points2D.push_back({uv, static_cast<Point3DId>(p + 1)});
+    }
+    writer.WriteKeypoints(id, keypoints);
+    streets.pieces[id <= 4 ? 0 : 1].images[id] = image;
+  }
+  for (int piece = 0; piece < 2; ++piece) {
+    for (int p = 0; p < kNumPoints; ++p) {
+      Point3D point;
+      point.xyz = piece == 0 ? StreetPoint(p) : second_from_world * StreetPoint(p);
+      for (ImageId k = 1; k <= 4; ++k) {
+        point.track.push_back({k + 4u * piece, static_cast<Point2DIdx>(p)});
+      }
+      streets.pieces[piece].points3D[p + 1] = point;
+    }
+  }
+  auto write = [&](ImageId a, ImageId b, std::vector<FeatureMatch> matches) {
+    TwoViewGeometry g;
+    g.pair = ImagePair(a, b);
+    g.config = static_cast<int>(TwoViewConfig::kCalibrated);
+    g.inlier_matches = std::move(matches);
+    writer.WriteTwoViewGeometry(g);
+  };
+  auto all_true = [] {
+    std::vector<FeatureMatch> m;
+    for (Point2DIdx p = 0; p < kNumPoints; ++p) m.push_back({p, p});
+    return m;
+  };
+  auto pattern_shifted = [](int shift) {
+    std::vector<FeatureMatch> m;
+    for (int row = 0; row < kRows; ++row) {
+      for (int column = 0; column + shift < kColumns; ++column) {
+        m.push_back({static_cast<Point2DIdx>(PatternPoint(column, row)),
+                     static_cast<Point2DIdx>(PatternPoint(column + shift, row))});
+      }
+    }
+    return m;
+  };
+  auto unique_only = [] {
+    std::vector<FeatureMatch> m;
+    for (Point2DIdx p = kColumns * kRows; p < kNumPoints; ++p) m.push_back({p, p});
+    return m;
+  };
+  for (ImageId first : {1u, 5u}) {
+    for (ImageId k = first; k < first + 3; ++k) write(k, k + 1, all_true());
+    write(first, first + 2, pattern_shifted(4));
+    write(first + 1, first + 3, pattern_shifted(4));
+    write(first, first + 3, pattern_shifted(8));
+  }
+  write(4, 5, unique_only());
+  const std::vector<std::pair<ImagePair, int>> doppelgangers = {
+      {ImagePair(1, 6), 1}, {ImagePair(1, 7), 2}, {ImagePair(1, 8), 3},
+      {ImagePair(2, 6), 4}, {ImagePair(2, 7), 5}, {ImagePair(2, 8), 6}};
+  for (const auto& [pair, shift] : doppelgangers) {
+    write(pair.image_id1, pair.image_id2, pattern_shifted(shift));
+  }
+  writer.Close();
+  return streets;
+}
+
+TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
+  TempDir tmp("hisfm-sequence-pass");
+  const TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
+  const ChainReconstructor pieces = [&](const std::string&) {
+    return streets.pieces;
+  };
+  SequencePassOptions options;
+  options.sequence.mode = "on";
+  options.join_by_conflict = false;
+  const SequencePassResult apart = RunSequencePass(
+      tmp / "database.db", 1, tmp / "apart", pieces, options);
+  EXPECT_FALSE(apart.ran);
+  EXPECT_EQ(apart.num_joined, 0u);
+
+  options.join_by_conflict = true;
+  // One pair votes for each proposed join here, and each photo sees about
+  // tens of the unique points.
+  options.conflict_join.min_votes = 1;
+  options.conflict_join.min_expected = 10;
+  const SequencePassResult joined = RunSequencePass(
+      tmp / "database.db", 1, tmp / "joined", pieces, options);
+  ASSERT_TRUE(joined.ran) << joined.note;
+  EXPECT_EQ(joined.num_joined, 1u);
+  EXPECT_EQ(joined.num_joined_by_conflict, 1u);
+  ASSERT_EQ(joined.chain_models.size(), 1u);
+  const Reconstruction& model = joined.chain_models[0];
+  ASSERT_EQ(model.NumRegImages(), 8u);
+  // The second piece's cameras land where they stand in the first's frame.
+  for (ImageId id = 5; id <= 8; ++id) {
+    const Eigen::Vector3d truth = StreetCamera(id).Inverse().translation;
+    EXPECT_LT((model.images.at(id).ProjectionCenter() - truth).norm(), 1e-3)
+        << "image " << id;
+  }
+  // The doppelganger pairs across the pieces are removed.
+  const ViewGraph cleaned =
+      ReadViewGraph(Database(joined.cleaned_database_path), 1);
+  EXPECT_EQ(cleaned.Weight(1, 6), 0u);
+  EXPECT_EQ(cleaned.Weight(2, 8), 0u);
+  EXPECT_EQ(cleaned.Weight(4, 5), static_cast<size_t>(kUnique));
 }
 
 }  // namespace

@@ -1,0 +1,93 @@
+// Joining two models whose verified pairs are mostly doppelgangers, by the
+// conflict of each proposed join with the models' unique points (Heinly,
+// Dunn and Frahm, "Correcting for Duplicate Scene Structure in Sparse 3D
+// Reconstruction", ECCV 2014; unique points after Yan et al., CVPR 2017,
+// verify/unique_points.h).
+//
+// Two streets of one repeated facade, reconstructed apart, share a few true
+// pairs where they cross and thousands of doppelganger pairs. Every pair
+// proposes the similarity of its own matched 3D points; the doppelgangers'
+// proposals form a few large families (one per shift of the facade) that
+// outvote the true one, by pairs and by points (docs/decisions.md,
+// twenty-second session). What separates them is what the proposed join
+// predicts: a photo of one model, placed by the join, should see the unique
+// points (the clutter) of the other model's photos it is paired with, and
+// match them. Under a doppelganger join it matches the repeated facade only;
+// under the true join it matches the clutter too. Each family of proposals
+// is scored by the share of the unique points it predicts that the pairs
+// voting for it do match, and the best, if it clears a bar, is joined
+// through its voting pairs (MergeThroughMatches).
+#pragma once
+
+#include <unordered_set>
+#include <vector>
+
+#include "hisfm/io/database.h"
+#include "hisfm/io/model.h"
+#include "hisfm/recon/model_merge.h"
+#include "hisfm/verify/unique_points.h"
+
+namespace hisfm {
+
+struct ConflictJoinOptions {
+  /// A pair proposes a join when at least this many of its matches have a
+  /// 3D point in both models...
+  int min_pair_correspondences = 20;
+  /// ... and at least this share of them agree with the similarity fitted
+  /// to them (within the merge's max_relative_error of their depth).
+  double min_pair_inlier_share = 0.5;
+  /// RANSAC samples of each pair's fit (fixed seed).
+  int pair_fit_iterations = 50;
+  /// A pair votes for a proposed join when its own similarity's rotation is
+  /// within this angle (degrees) of the join's and maps its points' centroid
+  /// within max_relative_error of their depth of where the join does.
+  double max_rotation_deg = 5.0;
+  /// Proposed joins examined: each is the similarity of the strongest pair
+  /// that votes for none examined before.
+  int max_hypotheses = 100;
+  /// A join needs at least this many voting pairs...
+  int min_votes = 3;
+  /// ... and at least this many unique points predicted in their photos...
+  int min_expected = 50;
+  /// ... of which at least this share are matched. On the two streets of
+  /// crossing_streets_1000_s3 (tuning) the true join's voting pairs matched
+  /// 66% of the unique points it predicts, each of the eight leading
+  /// doppelganger joins 0.9% or less.
+  double min_found_share = 0.3;
+
+  /// Throws hisfm::Error if an option is out of range.
+  void Check() const;
+};
+
+/// What JoinByLeastConflict found and did.
+struct ConflictJoinStep {
+  /// Pairs whose own similarity was fitted (they propose a join).
+  size_t num_fitted_pairs = 0;
+  /// Proposed joins examined.
+  size_t num_hypotheses = 0;
+  /// The best-scored join: its voting pairs, the unique points it predicts
+  /// in their photos and those matched (0 when none was scored).
+  size_t num_votes = 0;
+  size_t num_expected = 0;
+  size_t num_found = 0;
+  /// The merge through the voting pairs (merged false when no join cleared
+  /// the bar or the merge refused it).
+  ModelMergeStep merge;
+};
+
+/// Joins `other` into `model` (as MergeThroughMatches does) through the
+/// pairs of the proposed join that conflicts least with the two models'
+/// unique points (all but `model_confusing` and `other_confusing`,
+/// FindConfusingPoints), when it clears the options' bars; `model` is left
+/// unchanged otherwise. `pairs` are verified pairs with one image in each
+/// model (others are ignored), with their inlier matches; `merge` gives the
+/// tolerance and the merge's thresholds. Both models must come from one
+/// database and use cameras that verify/camera_projection.h supports.
+ConflictJoinStep JoinByLeastConflict(
+    const Reconstruction& other, const std::vector<PairMatches>& pairs,
+    const std::unordered_set<Point3DId>& model_confusing,
+    const std::unordered_set<Point3DId>& other_confusing,
+    const ConflictJoinOptions& options, const ModelMergeOptions& merge,
+    Reconstruction* model);
+
+}  // namespace hisfm
