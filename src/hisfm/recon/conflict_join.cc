@@ -26,6 +26,9 @@ void ConflictJoinOptions::Check() const {
   HISFM_CHECK_OPTION(max_hypotheses, max_hypotheses >= 1, ">= 1");
   HISFM_CHECK_OPTION(min_votes, min_votes >= 1, ">= 1");
   HISFM_CHECK_OPTION(min_expected, min_expected >= 1, ">= 1");
+  HISFM_CHECK_OPTION(min_share_ratio,
+                     std::isfinite(min_share_ratio) && min_share_ratio >= 1.0,
+                     "finite and >= 1");
   HISFM_CHECK_OPTION(min_found_share,
                      min_found_share >= 0.0 && min_found_share <= 1.0,
                      "in [0, 1]");
@@ -236,7 +239,10 @@ ConflictJoinStep JoinByLeastConflict(
     }
     if (expected < static_cast<size_t>(options.min_expected)) continue;
     const double share = static_cast<double>(found) / expected;
-    if (share > best_share) {
+    if (share <= best_share) {
+      step.next_found_share = std::max(step.next_found_share, share);
+    } else {
+      if (best_share >= 0.0) step.next_found_share = best_share;
       best_share = share;
       best_voters = std::move(voters);
       step.num_votes = best_voters.size();
@@ -244,7 +250,8 @@ ConflictJoinStep JoinByLeastConflict(
       step.num_found = found;
     }
   }
-  if (best_voters.empty() || best_share < options.min_found_share) {
+  if (best_voters.empty() || best_share < options.min_found_share ||
+      best_share < options.min_share_ratio * step.next_found_share) {
     return step;
   }
   std::vector<PairMatches> chosen;

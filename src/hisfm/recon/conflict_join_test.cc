@@ -139,6 +139,31 @@ TEST(JoinByLeastConflict, RefusesWhenEveryJoinMissesTheUniquePoints) {
   EXPECT_EQ(model.NumRegImages(), 2u);
 }
 
+TEST(JoinByLeastConflict, AJoinThatDoesNotStandOutIsLeftUndone) {
+  // With the pattern taken for unique, the doppelganger joins find much of
+  // what they predict matched too (the best of them about 40%), so the true
+  // join (100%) stands out by less than 3 times.
+  const Reconstruction other = MakeModel(3, OtherFromWorld());
+  const std::vector<PairMatches> pairs = {
+      ShiftedPattern(1, 3, 1), ShiftedPattern(1, 4, 2),
+      ShiftedPattern(2, 4, 3), TruePair(2, 3)};
+  ConflictJoinOptions options = OnePairPerJoin();
+  options.min_share_ratio = 3.0;
+  Reconstruction model = MakeModel(1, Sim3d());
+  const ConflictJoinStep step = JoinByLeastConflict(
+      other, pairs, {}, {}, options, ModelMergeOptions(), &model);
+  EXPECT_EQ(step.num_found, step.num_expected);
+  EXPECT_GT(step.next_found_share, 1.0 / 3.0);
+  EXPECT_FALSE(step.merge.merged);
+  EXPECT_EQ(model.NumRegImages(), 2u);
+  options.min_share_ratio = 1.0;
+  EXPECT_TRUE(
+      JoinByLeastConflict(other, pairs, {}, {}, options, ModelMergeOptions(),
+                          &model)
+          .merge.merged);
+  EXPECT_EQ(model.NumRegImages(), 4u);
+}
+
 TEST(JoinByLeastConflict, AJoinNeedsItsVotesAndItsExpectedPoints) {
   const Reconstruction other = MakeModel(3, OtherFromWorld());
   const std::vector<PairMatches> pairs = {TruePair(2, 3)};
@@ -172,6 +197,7 @@ TEST(ConflictJoinOptions, RejectsOutOfRangeValues) {
   expect_throw([](ConflictJoinOptions* o) { o->min_votes = 0; });
   expect_throw([](ConflictJoinOptions* o) { o->min_expected = 0; });
   expect_throw([](ConflictJoinOptions* o) { o->min_found_share = -0.1; });
+  expect_throw([](ConflictJoinOptions* o) { o->min_share_ratio = 0.5; });
   EXPECT_NO_THROW(ConflictJoinOptions().Check());
 }
 

@@ -149,10 +149,12 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
     HISFM_LOG_INFO(
         "sequence: {} a chain model of {} images by conflict: {} pairs "
         "propose joins, {} examined; the best has {} voting pairs, whose "
-        "photos match {} of the {} unique points it predicts",
+        "photos match {} of the {} unique points it predicts (the next best "
+        "{:.1f}%)",
         step.merge.merged ? "joined" : "could not join",
         step.merge.num_images, step.num_fitted_pairs, step.num_hypotheses,
-        step.num_votes, step.num_found, step.num_expected);
+        step.num_votes, step.num_found, step.num_expected,
+        100.0 * step.next_found_share);
     return step.merge.merged;
   });
   result->num_joined += count;
