@@ -53,6 +53,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         seq.conflict_join.min_found_share,
         "A join by conflict needs its pairs to match this share of the "
         "unique points it predicts");
+  visit("--HiSfM.sequence_min_unique_share_ratio",
+        seq.conflict_join.min_share_ratio,
+        "... and this many times the share of the next best join");
   visit("--HiSfM.top_k", h.communities.top_k,
         "Strongest neighbours kept per image to form communities (k)");
   visit("--HiSfM.num_trees", h.skeleton.num_trees,
