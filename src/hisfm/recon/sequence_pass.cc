@@ -98,6 +98,17 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
   std::vector<Reconstruction> rest(std::make_move_iterator(models.begin() + 1),
                                    std::make_move_iterator(models.end()));
   std::vector<bool> joined(rest.size(), false);
+  // The pairs between the base and rest[i], read once for each size of the
+  // base (a join grows it): both rounds of joins look at the same pairs.
+  std::vector<std::vector<PairMatches>> across(rest.size());
+  std::vector<size_t> across_base_images(rest.size(), 0);
+  auto pairs_across = [&](size_t i) -> const std::vector<PairMatches>& {
+    if (across_base_images[i] != base.NumRegImages()) {
+      across[i] = PairsAcross(database, graph, base, rest[i]);
+      across_base_images[i] = base.NumRegImages();
+    }
+    return across[i];
+  };
   // Joins what it can, rest[i] by `join(i)`, until no join succeeds.
   auto join_all = [&](auto&& join) {
     size_t count = 0;
@@ -106,6 +117,7 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
       for (size_t i = 0; i < rest.size(); ++i) {
         if (joined[i] || !join(i)) continue;
         joined[i] = true;
+        across[i] = {};
         progress = true;
         ++count;
       }
@@ -113,9 +125,8 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
     return count;
   };
   result->num_joined += join_all([&](size_t i) {
-    const ModelMergeStep step = MergeThroughMatches(
-        rest[i], PairsAcross(database, graph, base, rest[i]), options.join,
-        &base);
+    const ModelMergeStep step =
+        MergeThroughMatches(rest[i], pairs_across(i), options.join, &base);
     HISFM_LOG_INFO(
         "sequence: {} a chain model of {} images through {} pair(s): {} of "
         "{} matched points agree",
@@ -144,8 +155,8 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
       base_images = base.NumRegImages();
     }
     const ConflictJoinStep step = JoinByLeastConflict(
-        rest[i], PairsAcross(database, graph, base, rest[i]), base_confusing,
-        confusing[i], options.conflict_join, options.join, &base);
+        rest[i], pairs_across(i), base_confusing, confusing[i],
+        options.conflict_join, options.join, &base);
     HISFM_LOG_INFO(
         "sequence: {} a chain model of {} images by conflict: {} pairs "
         "propose joins, {} examined; the best has {} voting pairs, whose "
