@@ -46,6 +46,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "A pair is removed when fewer of its matches agree with the chain");
   visit("--HiSfM.sequence_require_one_model", seq.require_one_model,
         "Clean the pairs only when the chain's pieces join into one model");
+  visit("--HiSfM.sequence_near_join_window", seq.near_join_window,
+        "Join the chain's pieces first through the pairs at most this many "
+        "places apart in an unbroken stretch of the chain (0 = off)");
   visit("--HiSfM.sequence_join_by_conflict", seq.join_by_conflict,
         "Join the chain's pieces that their pairs cannot join by the "
         "proposed join that conflicts least with their unique points");

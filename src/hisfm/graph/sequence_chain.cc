@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <unordered_map>
 
 #include "hisfm/util/error.h"
 #include "hisfm/util/string_util.h"
@@ -114,6 +115,34 @@ SequenceChain FindSequenceChain(
   }
   std::sort(chain.links.begin(), chain.links.end());
   return chain;
+}
+
+std::vector<ImagePair> NearChainPairs(const SequenceChain& chain,
+                                      const std::vector<ImagePair>& pairs,
+                                      int window) {
+  std::unordered_map<ImageId, size_t> place;
+  for (size_t k = 0; k < chain.order.size(); ++k) place[chain.order[k]] = k;
+  // breaks_before[k]: consecutive pairs before place k that are not links.
+  std::vector<size_t> breaks_before(chain.order.size(), 0);
+  for (size_t k = 1; k < chain.order.size(); ++k) {
+    const bool link = std::binary_search(
+        chain.links.begin(), chain.links.end(),
+        ImagePair(chain.order[k - 1], chain.order[k]));
+    breaks_before[k] = breaks_before[k - 1] + (link ? 0 : 1);
+  }
+  std::vector<ImagePair> near;
+  for (const ImagePair& pair : pairs) {
+    const auto a = place.find(pair.image_id1);
+    const auto b = place.find(pair.image_id2);
+    if (a == place.end() || b == place.end()) continue;
+    const size_t lo = std::min(a->second, b->second);
+    const size_t hi = std::max(a->second, b->second);
+    if (hi - lo <= static_cast<size_t>(std::max(window, 0)) &&
+        breaks_before[hi] == breaks_before[lo]) {
+      near.push_back(pair);
+    }
+  }
+  return near;
 }
 
 }  // namespace hisfm

@@ -82,4 +82,13 @@ SequenceChain FindSequenceChain(
     const std::unordered_map<ImageId, std::string>& names,
     const SequenceOptions& options);
 
+/// The pairs of `pairs` whose two images lie at most `window` places apart
+/// in the chain's order with a link between every two consecutive images
+/// from one to the other: pairs inside an unbroken stretch of the chain,
+/// which the capture order vouches for as it does for the links. Pairs with
+/// an image outside the order are left out; the order of `pairs` is kept.
+std::vector<ImagePair> NearChainPairs(const SequenceChain& chain,
+                                      const std::vector<ImagePair>& pairs,
+                                      int window);
+
 }  // namespace hisfm

@@ -117,6 +117,33 @@ TEST(SequenceChain, AJumpBreaksTheChain) {
             38u);
 }
 
+TEST(SequenceChain, NearPairsStayInsideAnUnbrokenStretch) {
+  const ViewGraph walk = WalkGraph(40, 5);
+  std::vector<ViewGraphEdge> edges;
+  for (ViewGraphEdge e : walk.Edges()) {
+    if (e.pair == ImagePair(20, 21)) continue;  // the capture jumps here
+    edges.push_back(e);
+  }
+  const ViewGraph graph = ViewGraph::FromEdges(walk.Images(), edges);
+  const SequenceChain chain = FindSequenceChain(
+      graph, NamesInOrder(graph.Images()), SequenceOptions());
+  ASSERT_EQ(chain.num_breaks, 1u);
+  const std::vector<ImagePair> pairs = {
+      ImagePair(5, 6),    // a link
+      ImagePair(5, 8),    // 3 apart, links between
+      ImagePair(5, 9),    // a doppelganger 4 apart: too far for window 3
+      ImagePair(19, 21),  // 2 apart, across the jump
+      ImagePair(21, 23),  // after the jump
+      ImagePair(3, 99)};  // an image outside the order
+  EXPECT_EQ(NearChainPairs(chain, pairs, 3),
+            (std::vector<ImagePair>{ImagePair(5, 6), ImagePair(5, 8),
+                                    ImagePair(21, 23)}));
+  EXPECT_EQ(NearChainPairs(chain, pairs, 4).size(), 4u);
+  EXPECT_EQ(NearChainPairs(chain, pairs, 1),
+            (std::vector<ImagePair>{ImagePair(5, 6)}));
+  EXPECT_TRUE(NearChainPairs(chain, pairs, 0).empty());
+}
+
 TEST(SequenceChain, OptionsAreChecked) {
   SequenceOptions bad;
   bad.mode = "sometimes";

@@ -20,11 +20,13 @@ namespace hisfm {
 namespace fs = std::filesystem;
 
 void SequencePassOptions::Check() const {
+  HISFM_CHECK_OPTION(near_join_window, near_join_window >= 0, ">= 0");
   sequence.Check();
   agreement.Check();
   unique_points.Check();
   conflict_join.Check();
   join.Check();
+  near_join.Check();
 }
 
 nlohmann::json SequencePassResult::ToJson() const {
@@ -36,6 +38,7 @@ nlohmann::json SequencePassResult::ToJson() const {
           {"ran", ran},
           {"models", num_models},
           {"joined", num_joined},
+          {"joined_near", num_joined_near},
           {"joined_by_conflict", num_joined_by_conflict},
           {"registered", num_registered},
           {"pairs_inside_models", num_judged},
@@ -47,15 +50,14 @@ nlohmann::json SequencePassResult::ToJson() const {
 
 namespace {
 
-// The inlier matches of the graph's pairs with one image in `a` and the
-// other in `b`.
+// The inlier matches of the pairs of `candidates` with one image in `a` and
+// the other in `b`.
 std::vector<PairMatches> PairsAcross(const Database& database,
-                                     const ViewGraph& graph,
+                                     const std::vector<ImagePair>& candidates,
                                      const Reconstruction& a,
                                      const Reconstruction& b) {
   std::vector<ImagePair> across;
-  for (const ViewGraphEdge& e : graph.Edges()) {
-    const ImagePair& p = e.pair;
+  for (const ImagePair& p : candidates) {
     if ((a.images.count(p.image_id1) && b.images.count(p.image_id2)) ||
         (b.images.count(p.image_id1) && a.images.count(p.image_id2))) {
       across.push_back(p);
@@ -84,11 +86,13 @@ std::vector<Reconstruction> LeftModels(Reconstruction base,
 }
 
 // Joins the models into the largest while any join succeeds; returns the
-// models left (the largest, grown, first) and counts the joins. Models left
-// apart by the joins through all their pairs are then tried by the conflict
-// of proposed joins with their unique points (join_by_conflict).
+// models left (the largest, grown, first) and counts the joins. Three rounds,
+// each for the models the rounds before left apart: through the near pairs
+// of the chain (near_join_window), through all the pairs, and by the
+// conflict of proposed joins with their unique points (join_by_conflict).
 std::vector<Reconstruction> JoinChainModels(const Database& database,
                                             const ViewGraph& graph,
+                                            const SequenceChain& chain,
                                             std::vector<Reconstruction> models,
                                             const SequencePassOptions& options,
                                             SequencePassResult* result) {
@@ -102,9 +106,10 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
   // base (a join grows it): both rounds of joins look at the same pairs.
   std::vector<std::vector<PairMatches>> across(rest.size());
   std::vector<size_t> across_base_images(rest.size(), 0);
+  const std::vector<ImagePair> pairs = graph.Pairs();
   auto pairs_across = [&](size_t i) -> const std::vector<PairMatches>& {
     if (across_base_images[i] != base.NumRegImages()) {
-      across[i] = PairsAcross(database, graph, base, rest[i]);
+      across[i] = PairsAcross(database, pairs, base, rest[i]);
       across_base_images[i] = base.NumRegImages();
     }
     return across[i];
@@ -124,6 +129,23 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
     }
     return count;
   };
+  const std::vector<ImagePair> near =
+      NearChainPairs(chain, pairs, options.near_join_window);
+  const size_t near_count = join_all([&](size_t i) {
+    const std::vector<PairMatches> near_across =
+        PairsAcross(database, near, base, rest[i]);
+    if (near_across.empty()) return false;
+    const ModelMergeStep step =
+        MergeThroughMatches(rest[i], near_across, options.near_join, &base);
+    HISFM_LOG_INFO(
+        "sequence: {} a chain model of {} images through {} near pair(s): {} "
+        "of {} matched points agree",
+        step.merged ? "joined" : "could not join", step.num_images,
+        step.num_pairs, step.num_inliers, step.num_correspondences);
+    return step.merged;
+  });
+  result->num_joined += near_count;
+  result->num_joined_near += near_count;
   result->num_joined += join_all([&](size_t i) {
     const ModelMergeStep step =
         MergeThroughMatches(rest[i], pairs_across(i), options.join, &base);
@@ -138,7 +160,6 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
       std::find(joined.begin(), joined.end(), false) == joined.end()) {
     return LeftModels(std::move(base), std::move(rest), joined);
   }
-  const std::vector<ImagePair> pairs = graph.Pairs();
   std::vector<std::unordered_set<Point3DId>> confusing(rest.size());
   for (size_t i = 0; i < rest.size(); ++i) {
     if (!joined[i]) {
@@ -181,8 +202,8 @@ bool CleanPairs(const Database& database, const std::string& database_path,
                 const SequencePassOptions& options,
                 std::vector<Reconstruction>* models,
                 SequencePassResult* result) {
-  *models = JoinChainModels(database, graph, std::move(*models), options,
-                            result);
+  *models = JoinChainModels(database, graph, result->chain,
+                            std::move(*models), options, result);
   if (options.require_one_model && models->size() > 1) {
     result->note = StrCat("the chain's ", models->size(),
                           " pieces could not be joined into one model");

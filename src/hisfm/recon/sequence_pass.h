@@ -1,7 +1,7 @@
 // The sequence pass (graph/sequence_chain.h): when the image names give the
 // capture order, the chain of consecutive pairs is reconstructed first, its
-// models are joined through the verified pairs between them where their
-// matched 3D points agree on one similarity (MergeThroughMatches) or, where
+// models are joined through the verified pairs between them (those near in
+// the capture order first) where their matched 3D points agree on one similarity (MergeThroughMatches) or, where
 // doppelgangers outvote the true pairs, by the proposed join that conflicts
 // least with their unique points (recon/conflict_join.h), and every
 // verified pair whose images one of the chain's models holds is put to the
@@ -46,6 +46,28 @@ struct SequencePassOptions {
   /// split in two (tuning and held-out; docs/decisions.md, twenty-first
   /// session).
   bool require_one_model = true;
+  /// Models of one unbroken stretch of the chain are first joined through
+  /// their near pairs alone: pairs at most this many places apart in the
+  /// name order with a link between every two consecutive images between
+  /// them (NearChainPairs), which the capture order vouches for as it does
+  /// for the links. The chain's mapper can split where a link carries few
+  /// tracks on (block_loop_1000_s2, held-out: a link with 137 matches, 1 of
+  /// them a 3D point in both models), and then every other pair between the
+  /// pieces votes, doppelgangers included (there 137,161 pairs, whose best
+  /// similarity had 924 of 1,189,767 matched points agree). The default is
+  /// the chain's break_window, the stretch the break test already trusts to
+  /// be one street; 0 turns this round off (docs/decisions.md,
+  /// twenty-third session).
+  int near_join_window = 5;
+  /// How the near pairs join: most of their matched points must agree, as
+  /// in the mapper's merges (a repeated street's doppelgangers can lie
+  /// within the window too, each voting for a join of its own).
+  ModelMergeOptions near_join = [] {
+    ModelMergeOptions options;
+    options.min_inlier_ratio = 0.7;
+    options.min_inliers = 30;
+    return options;
+  }();
   /// Models that the pairs between them cannot join (their doppelgangers
   /// outvote the true pairs) are joined by the proposal that conflicts
   /// least with their unique points, if it clears conflict_join's bars
@@ -87,6 +109,9 @@ struct SequencePassResult {
   /// The chain's models, and how many of them were joined into others.
   size_t num_models = 0;
   size_t num_joined = 0;
+  /// Of those, the models joined through their near pairs
+  /// (near_join_window).
+  size_t num_joined_near = 0;
   /// Of those, the models joined by conflict (join_by_conflict).
   size_t num_joined_by_conflict = 0;
   /// Images the chain's models registered.

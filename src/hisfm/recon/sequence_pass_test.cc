@@ -303,5 +303,51 @@ TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
   EXPECT_EQ(cleaned.Weight(4, 5), static_cast<size_t>(kUnique));
 }
 
+// The two pieces above lie on one unbroken stretch of the chain (the link
+// 4-5 matches 40 unique points, not weak enough to break it). Through the
+// link alone they join at the true similarity; within five places the
+// doppelganger pairs 1-6, 1-7, 2-6 and 2-7 join the near pairs too, and as
+// no similarity has most of their matched points, the near round refuses;
+// a link that breaks the chain gives no near pair.
+TEST(SequencePass, PiecesOfAnUnbrokenStretchJoinThroughTheirNearPairs) {
+  TempDir tmp("hisfm-sequence-pass");
+  const TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
+  const ChainReconstructor pieces = [&](const std::string&) {
+    return streets.pieces;
+  };
+  SequencePassOptions options;
+  options.sequence.mode = "on";
+  options.join_by_conflict = false;
+  options.near_join_window = 1;
+  const SequencePassResult link = RunSequencePass(
+      tmp / "database.db", 1, tmp / "link", pieces, options);
+  ASSERT_TRUE(link.ran) << link.note;
+  EXPECT_EQ(link.num_joined, 1u);
+  EXPECT_EQ(link.num_joined_near, 1u);
+  EXPECT_EQ(link.ToJson()["joined_near"], 1u);
+  ASSERT_EQ(link.chain_models.size(), 1u);
+  for (ImageId id = 5; id <= 8; ++id) {
+    const Eigen::Vector3d truth = StreetCamera(id).Inverse().translation;
+    EXPECT_LT((link.chain_models[0].images.at(id).ProjectionCenter() - truth)
+                  .norm(),
+              1e-3)
+        << "image " << id;
+  }
+
+  options.near_join_window = 5;
+  const SequencePassResult near = RunSequencePass(
+      tmp / "database.db", 1, tmp / "near", pieces, options);
+  EXPECT_FALSE(near.ran);
+  EXPECT_EQ(near.num_joined_near, 0u);
+
+  options.near_join_window = 1;
+  options.sequence.break_ratio = 0.5;  // 40 inliers against 100: a break
+  const SequencePassResult broken = RunSequencePass(
+      tmp / "database.db", 1, tmp / "broken", pieces, options);
+  EXPECT_EQ(broken.chain.num_breaks, 1u);
+  EXPECT_FALSE(broken.ran);
+  EXPECT_EQ(broken.num_joined_near, 0u);
+}
+
 }  // namespace
 }  // namespace hisfm
