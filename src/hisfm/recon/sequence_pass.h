@@ -49,16 +49,18 @@ struct SequencePassOptions {
   /// Models of one unbroken stretch of the chain are first joined through
   /// their near pairs alone: pairs at most this many places apart in the
   /// name order with a link between every two consecutive images between
-  /// them (NearChainPairs), which the capture order vouches for as it does
-  /// for the links. The chain's mapper can split where a link carries few
-  /// tracks on (block_loop_1000_s2, held-out: a link with 137 matches, 1 of
-  /// them a 3D point in both models), and then every other pair between the
-  /// pieces votes, doppelgangers included (there 137,161 pairs, whose best
-  /// similarity had 924 of 1,189,767 matched points agree). The default is
-  /// the chain's break_window, the stretch the break test already trusts to
-  /// be one street; 0 turns this round off (docs/decisions.md,
-  /// twenty-third session).
-  int near_join_window = 5;
+  /// them (NearChainPairs). The chain's mapper can split where a link
+  /// carries few tracks on (block_loop_1000_s2, held-out: a link with 137
+  /// matches, 1 of them a 3D point in both models), and then every other
+  /// pair between the pieces votes, doppelgangers included (there 137,161
+  /// pairs, whose best similarity had 924 of 1,189,767 matched points
+  /// agree). Two places, as the capture order vouches only for the nearest:
+  /// on the instances at hand (40 to 1,000 images, both halves) at most 0.4%
+  /// of the pairs one place apart are doppelgangers by their labels, up to
+  /// 35% of those two apart (block loops, tuning) and up to 73% of those
+  /// three apart (facade streets, held-out); 0 turns this round off
+  /// (docs/decisions.md, twenty-third session).
+  int near_join_window = 2;
   /// How the near pairs join: most of their matched points must agree, as
   /// in the mapper's merges (a repeated street's doppelgangers can lie
   /// within the window too, each voting for a join of its own).
