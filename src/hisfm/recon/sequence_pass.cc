@@ -129,32 +129,29 @@ std::vector<Reconstruction> JoinChainModels(const Database& database,
     }
     return count;
   };
+  // Joins rest[i] through `across` under `merge`; `kind` names the pairs.
+  auto join_through = [&](size_t i, const std::vector<PairMatches>& across,
+                          const ModelMergeOptions& merge, const char* kind) {
+    if (across.empty()) return false;
+    const ModelMergeStep step =
+        MergeThroughMatches(rest[i], across, merge, &base);
+    HISFM_LOG_INFO(
+        "sequence: {} a chain model of {} images through {} {}pair(s): {} of "
+        "{} matched points agree",
+        step.merged ? "joined" : "could not join", step.num_images,
+        step.num_pairs, kind, step.num_inliers, step.num_correspondences);
+    return step.merged;
+  };
   const std::vector<ImagePair> near =
       NearChainPairs(chain, pairs, options.near_join_window);
   const size_t near_count = join_all([&](size_t i) {
-    const std::vector<PairMatches> near_across =
-        PairsAcross(database, near, base, rest[i]);
-    if (near_across.empty()) return false;
-    const ModelMergeStep step =
-        MergeThroughMatches(rest[i], near_across, options.near_join, &base);
-    HISFM_LOG_INFO(
-        "sequence: {} a chain model of {} images through {} near pair(s): {} "
-        "of {} matched points agree",
-        step.merged ? "joined" : "could not join", step.num_images,
-        step.num_pairs, step.num_inliers, step.num_correspondences);
-    return step.merged;
+    return join_through(i, PairsAcross(database, near, base, rest[i]),
+                        options.near_join, "near ");
   });
   result->num_joined += near_count;
   result->num_joined_near += near_count;
   result->num_joined += join_all([&](size_t i) {
-    const ModelMergeStep step =
-        MergeThroughMatches(rest[i], pairs_across(i), options.join, &base);
-    HISFM_LOG_INFO(
-        "sequence: {} a chain model of {} images through {} pair(s): {} of "
-        "{} matched points agree",
-        step.merged ? "joined" : "could not join", step.num_images,
-        step.num_pairs, step.num_inliers, step.num_correspondences);
-    return step.merged;
+    return join_through(i, pairs_across(i), options.join, "");
   });
   if (!options.join_by_conflict ||
       std::find(joined.begin(), joined.end(), false) == joined.end()) {

@@ -1,8 +1,9 @@
 // The sequence pass (graph/sequence_chain.h): when the image names give the
 // capture order, the chain of consecutive pairs is reconstructed first, its
 // models are joined through the verified pairs between them (those near in
-// the capture order first) where their matched 3D points agree on one similarity (MergeThroughMatches) or, where
-// doppelgangers outvote the true pairs, by the proposed join that conflicts
+// the capture order first) where their matched 3D points agree on one
+// similarity (MergeThroughMatches) or, where doppelgangers outvote the true
+// pairs, by the proposed join that conflicts
 // least with their unique points (recon/conflict_join.h), and every
 // verified pair whose images one of the chain's models holds is put to the
 // transfer test against it (verify/model_agreement.h). A pair that agrees

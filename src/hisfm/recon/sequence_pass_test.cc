@@ -262,6 +262,19 @@ TwoStreets WriteTwoStreetsDatabase(const std::string& path) {
   return streets;
 }
 
+// Expects the joined chain of the two streets to hold all eight photos, the
+// second piece's cameras where they stand in the first's frame.
+void ExpectStreetsJoinedAtTruth(const SequencePassResult& joined) {
+  ASSERT_EQ(joined.chain_models.size(), 1u);
+  const Reconstruction& model = joined.chain_models[0];
+  ASSERT_EQ(model.NumRegImages(), 8u);
+  for (ImageId id = 5; id <= 8; ++id) {
+    const Eigen::Vector3d truth = StreetCamera(id).Inverse().translation;
+    EXPECT_LT((model.images.at(id).ProjectionCenter() - truth).norm(), 1e-3)
+        << "image " << id;
+  }
+}
+
 TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
   TempDir tmp("hisfm-sequence-pass");
   const TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
@@ -289,15 +302,7 @@ TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
   ASSERT_TRUE(joined.ran) << joined.note;
   EXPECT_EQ(joined.num_joined, 1u);
   EXPECT_EQ(joined.num_joined_by_conflict, 1u);
-  ASSERT_EQ(joined.chain_models.size(), 1u);
-  const Reconstruction& model = joined.chain_models[0];
-  ASSERT_EQ(model.NumRegImages(), 8u);
-  // The second piece's cameras land where they stand in the first's frame.
-  for (ImageId id = 5; id <= 8; ++id) {
-    const Eigen::Vector3d truth = StreetCamera(id).Inverse().translation;
-    EXPECT_LT((model.images.at(id).ProjectionCenter() - truth).norm(), 1e-3)
-        << "image " << id;
-  }
+  ExpectStreetsJoinedAtTruth(joined);
   // The doppelganger pairs across the pieces are removed.
   const ViewGraph cleaned =
       ReadViewGraph(Database(joined.cleaned_database_path), 1);
@@ -328,14 +333,7 @@ TEST(SequencePass, PiecesOfAnUnbrokenStretchJoinThroughTheirNearPairs) {
   EXPECT_EQ(link.num_joined, 1u);
   EXPECT_EQ(link.num_joined_near, 1u);
   EXPECT_EQ(link.ToJson()["joined_near"], 1u);
-  ASSERT_EQ(link.chain_models.size(), 1u);
-  for (ImageId id = 5; id <= 8; ++id) {
-    const Eigen::Vector3d truth = StreetCamera(id).Inverse().translation;
-    EXPECT_LT((link.chain_models[0].images.at(id).ProjectionCenter() - truth)
-                  .norm(),
-              1e-3)
-        << "image " << id;
-  }
+  ExpectStreetsJoinedAtTruth(link);
 
   options.near_join_window = 5;
   const SequencePassResult near = RunSequencePass(
