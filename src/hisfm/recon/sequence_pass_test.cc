@@ -275,20 +275,36 @@ void ExpectStreetsJoinedAtTruth(const SequencePassResult& joined) {
   }
 }
 
+// The two streets' database in a temporary folder, their pieces as the
+// chain's models, and the pass's options for them (the name order on, no
+// join by conflict unless a test turns it on).
+struct TwoStreetsPass {
+  TempDir tmp{"hisfm-sequence-pass"};
+  TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
+  SequencePassOptions options = [] {
+    SequencePassOptions o;
+    o.sequence.mode = "on";
+    o.join_by_conflict = false;
+    return o;
+  }();
+
+  // Runs the pass with its work folder `name`.
+  SequencePassResult Run(const std::string& name) const {
+    const ChainReconstructor pieces = [&](const std::string&) {
+      return streets.pieces;
+    };
+    return RunSequencePass(tmp / "database.db", 1, tmp / name, pieces,
+                           options);
+  }
+};
+
 TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
-  TempDir tmp("hisfm-sequence-pass");
-  const TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
-  const ChainReconstructor pieces = [&](const std::string&) {
-    return streets.pieces;
-  };
-  SequencePassOptions options;
-  options.sequence.mode = "on";
-  options.join_by_conflict = false;
+  TwoStreetsPass pass;
+  SequencePassOptions& options = pass.options;
   // The link 4-5 alone would join them in the near round (the next test);
   // here the pieces stand for two streets that only the conflict can join.
   options.near_join_window = 0;
-  const SequencePassResult apart = RunSequencePass(
-      tmp / "database.db", 1, tmp / "apart", pieces, options);
+  const SequencePassResult apart = pass.Run("apart");
   EXPECT_FALSE(apart.ran);
   EXPECT_EQ(apart.num_joined, 0u);
 
@@ -297,8 +313,7 @@ TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
   // tens of the unique points.
   options.conflict_join.min_votes = 1;
   options.conflict_join.min_expected = 10;
-  const SequencePassResult joined = RunSequencePass(
-      tmp / "database.db", 1, tmp / "joined", pieces, options);
+  const SequencePassResult joined = pass.Run("joined");
   ASSERT_TRUE(joined.ran) << joined.note;
   EXPECT_EQ(joined.num_joined, 1u);
   EXPECT_EQ(joined.num_joined_by_conflict, 1u);
@@ -318,17 +333,10 @@ TEST(SequencePass, PiecesJoinByTheConflictWithTheirUniquePoints) {
 // no similarity has most of their matched points, the near round refuses;
 // a link that breaks the chain gives no near pair.
 TEST(SequencePass, PiecesOfAnUnbrokenStretchJoinThroughTheirNearPairs) {
-  TempDir tmp("hisfm-sequence-pass");
-  const TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
-  const ChainReconstructor pieces = [&](const std::string&) {
-    return streets.pieces;
-  };
-  SequencePassOptions options;
-  options.sequence.mode = "on";
-  options.join_by_conflict = false;
+  TwoStreetsPass pass;
+  SequencePassOptions& options = pass.options;
   options.near_join_window = 1;
-  const SequencePassResult link = RunSequencePass(
-      tmp / "database.db", 1, tmp / "link", pieces, options);
+  const SequencePassResult link = pass.Run("link");
   ASSERT_TRUE(link.ran) << link.note;
   EXPECT_EQ(link.num_joined, 1u);
   EXPECT_EQ(link.num_joined_near, 1u);
@@ -336,15 +344,13 @@ TEST(SequencePass, PiecesOfAnUnbrokenStretchJoinThroughTheirNearPairs) {
   ExpectStreetsJoinedAtTruth(link);
 
   options.near_join_window = 5;
-  const SequencePassResult near = RunSequencePass(
-      tmp / "database.db", 1, tmp / "near", pieces, options);
+  const SequencePassResult near = pass.Run("near");
   EXPECT_FALSE(near.ran);
   EXPECT_EQ(near.num_joined_near, 0u);
 
   options.near_join_window = 1;
   options.sequence.break_ratio = 0.5;  // 40 inliers against 100: a break
-  const SequencePassResult broken = RunSequencePass(
-      tmp / "database.db", 1, tmp / "broken", pieces, options);
+  const SequencePassResult broken = pass.Run("broken");
   EXPECT_EQ(broken.chain.num_breaks, 1u);
   EXPECT_FALSE(broken.ran);
   EXPECT_EQ(broken.num_joined_near, 0u);
