@@ -52,10 +52,15 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.sequence_join_by_conflict", seq.join_by_conflict,
         "Join the chain's pieces that their pairs cannot join by the "
         "proposed join that conflicts least with their unique points");
+  visit("--HiSfM.sequence_close_loops_by_conflict",
+        seq.close_loops_by_conflict,
+        "Keep the pairs across the halves of the chain's order that the "
+        "chain rejects when they form the join of least conflict with the "
+        "unique points (loop closures)");
   visit("--HiSfM.sequence_min_unique_found_share",
         seq.conflict_join.min_found_share,
-        "A join by conflict needs its pairs to match this share of the "
-        "unique points it predicts");
+        "A join by conflict (or loop closure) needs its pairs to match this "
+        "share of the unique points it predicts");
   visit("--HiSfM.sequence_min_unique_share_ratio",
         seq.conflict_join.min_share_ratio,
         "... and this many times the share of the next best join");

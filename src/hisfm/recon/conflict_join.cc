@@ -48,9 +48,10 @@ struct Proposal {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();  // other's frame
   double depth = 0.0;  // mean depth of its agreeing points, model image
   size_t num_inliers = 0;
-  // The pair's matched keypoints in each image, sorted.
-  std::vector<Point2DIdx> model_keypoints;
-  std::vector<Point2DIdx> other_keypoints;
+  // The pair's matches as (model keypoint, other keypoint) and (other
+  // keypoint, model keypoint), each sorted.
+  std::vector<std::pair<Point2DIdx, Point2DIdx>> model_to_other;
+  std::vector<std::pair<Point2DIdx, Point2DIdx>> other_to_model;
 };
 
 // The point keypoint `idx` of `image` observes in `model`, if any.
@@ -88,8 +89,8 @@ std::optional<Proposal> Propose(const Reconstruction& model,
   for (const FeatureMatch& m : pm.matches) {
     const Point2DIdx k_model = swapped ? m.idx2 : m.idx1;
     const Point2DIdx k_other = swapped ? m.idx1 : m.idx2;
-    p.model_keypoints.push_back(k_model);
-    p.other_keypoints.push_back(k_other);
+    p.model_to_other.push_back({k_model, k_other});
+    p.other_to_model.push_back({k_other, k_model});
     const Point3D* x_model = ObservedPoint(model, model_image, k_model);
     const Point3D* x_other = ObservedPoint(other, other_image, k_other);
     if (x_model == nullptr || x_other == nullptr) continue;
@@ -121,8 +122,8 @@ std::optional<Proposal> Propose(const Reconstruction& model,
   }
   p.centroid /= static_cast<double>(fit.num_inliers);
   p.depth /= static_cast<double>(fit.num_inliers);
-  std::sort(p.model_keypoints.begin(), p.model_keypoints.end());
-  std::sort(p.other_keypoints.begin(), p.other_keypoints.end());
+  std::sort(p.model_to_other.begin(), p.model_to_other.end());
+  std::sort(p.other_to_model.begin(), p.other_to_model.end());
   return p;
 }
 
@@ -150,13 +151,20 @@ Projections CameraProjections(const Reconstruction& model) {
 
 // Counts the unique points of `from`'s image `from_id` that land in `to`'s
 // image `to_id` (in front of it, inside the image) under `to_from_from`
-// (expected), and those of them whose keypoint the pair matched (found).
+// (expected), and those of them the pair matched in agreement with the
+// join (found): to a keypoint that observes a point of `to` within
+// max_relative_error of the landing point's depth of it. A unique point
+// matched only to keypoints that observe no point of `to` is left out of
+// both counts (the match can neither confirm nor refute the join). A match
+// that ties the unique point to another point of `to` is evidence against
+// the join, not for it (two photos near in a street match some clutter
+// truly, whatever shift of the facade a join proposes).
 void Predict(const Reconstruction& from, ImageId from_id,
              const std::unordered_set<Point3DId>& confusing,
-             const std::vector<Point2DIdx>& matched,
+             const std::vector<std::pair<Point2DIdx, Point2DIdx>>& matched,
              const Reconstruction& to, ImageId to_id,
              const Projections& to_cameras, const Sim3d& to_from_from,
-             size_t* expected, size_t* found) {
+             double max_relative_error, size_t* expected, size_t* found) {
   const Image& from_image = from.images.at(from_id);
   const Image& to_image = to.images.at(to_id);
   const auto camera = to_cameras.find(to_image.camera_id);
@@ -166,37 +174,49 @@ void Predict(const Reconstruction& from, ImageId from_id,
     const Point3DId id = from_image.points2D[k].point3D_id;
     const auto point = from.points3D.find(id);
     if (point == from.points3D.end() || confusing.count(id)) continue;
-    const Eigen::Vector3d in_cam =
-        to_image.cam_from_world * (to_from_from * point->second.xyz);
+    const Eigen::Vector3d landing = to_from_from * point->second.xyz;
+    const Eigen::Vector3d in_cam = to_image.cam_from_world * landing;
     if (!(in_cam.z() > 0.0)) continue;
     if (!camera->second.InImage(
             camera->second.NormalizedToPixel(in_cam.hnormalized()))) {
       continue;
     }
-    ++*expected;
-    if (std::binary_search(matched.begin(), matched.end(),
-                           static_cast<Point2DIdx>(k))) {
-      ++*found;
+    const auto key = static_cast<Point2DIdx>(k);
+    bool neutral = false;
+    bool agrees = false;
+    for (auto it = std::lower_bound(matched.begin(), matched.end(),
+                                    std::make_pair(key, Point2DIdx{0}));
+         it != matched.end() && it->first == key; ++it) {
+      const Point3D* partner = ObservedPoint(to, to_image, it->second);
+      if (partner == nullptr) {
+        neutral = true;
+      } else if ((partner->xyz - landing).norm() <=
+                 max_relative_error * in_cam.z()) {
+        agrees = true;
+      }
     }
+    if (neutral && !agrees) continue;
+    ++*expected;
+    if (agrees) ++*found;
   }
 }
 
 }  // namespace
 
-ConflictJoinStep JoinByLeastConflict(
-    const Reconstruction& other, const std::vector<PairMatches>& pairs,
+LeastConflictJoin FindLeastConflictJoin(
+    const Reconstruction& model, const Reconstruction& other,
+    const std::vector<PairMatches>& pairs,
     const std::unordered_set<Point3DId>& model_confusing,
     const std::unordered_set<Point3DId>& other_confusing,
-    const ConflictJoinOptions& options, const ModelMergeOptions& merge,
-    Reconstruction* model) {
+    const ConflictJoinOptions& options, double max_relative_error) {
   options.Check();
-  merge.Check();
-  ConflictJoinStep step;
+  LeastConflictJoin out;
+  ConflictJoinStep& step = out.step;
   step.merge.num_images = other.NumRegImages();
   std::vector<Proposal> proposals;
   for (size_t i = 0; i < pairs.size(); ++i) {
-    std::optional<Proposal> p = Propose(*model, other, pairs[i], i, options,
-                                        merge.max_relative_error);
+    std::optional<Proposal> p =
+        Propose(model, other, pairs[i], i, options, max_relative_error);
     if (p) proposals.push_back(std::move(*p));
   }
   step.num_fitted_pairs = proposals.size();
@@ -205,7 +225,7 @@ ConflictJoinStep JoinByLeastConflict(
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
     return proposals[a].num_inliers > proposals[b].num_inliers;
   });
-  const Projections model_cameras = CameraProjections(*model);
+  const Projections model_cameras = CameraProjections(model);
   const Projections other_cameras = CameraProjections(other);
   const double max_rotation = options.max_rotation_deg * M_PI / 180.0;
   std::vector<bool> covered(proposals.size(), false);
@@ -221,7 +241,7 @@ ConflictJoinStep JoinByLeastConflict(
     const Sim3d join = proposals[seed].model_from_other;
     std::vector<size_t> voters;
     for (size_t k = 0; k < proposals.size(); ++k) {
-      if (Votes(proposals[k], join, max_rotation, merge.max_relative_error)) {
+      if (Votes(proposals[k], join, max_rotation, max_relative_error)) {
         voters.push_back(k);
         covered[k] = true;
       }
@@ -231,11 +251,12 @@ ConflictJoinStep JoinByLeastConflict(
     size_t expected = 0, found = 0;
     for (const size_t k : voters) {
       const Proposal& p = proposals[k];
-      Predict(*model, p.model_image, model_confusing, p.model_keypoints, other,
-              p.other_image, other_cameras, other_from_model, &expected,
-              &found);
-      Predict(other, p.other_image, other_confusing, p.other_keypoints,
-              *model, p.model_image, model_cameras, join, &expected, &found);
+      Predict(model, p.model_image, model_confusing, p.model_to_other, other,
+              p.other_image, other_cameras, other_from_model,
+              max_relative_error, &expected, &found);
+      Predict(other, p.other_image, other_confusing, p.other_to_model, model,
+              p.model_image, model_cameras, join, max_relative_error,
+              &expected, &found);
     }
     if (expected < static_cast<size_t>(options.min_expected)) continue;
     const double share = static_cast<double>(found) / expected;
@@ -245,20 +266,36 @@ ConflictJoinStep JoinByLeastConflict(
       if (best_share >= 0.0) step.next_found_share = best_share;
       best_share = share;
       best_voters = std::move(voters);
+      out.model_from_other = join;
       step.num_votes = best_voters.size();
       step.num_expected = expected;
       step.num_found = found;
     }
   }
-  if (best_voters.empty() || best_share < options.min_found_share ||
-      best_share < options.min_share_ratio * step.next_found_share) {
-    return step;
-  }
-  std::vector<PairMatches> chosen;
-  chosen.reserve(best_voters.size());
   for (const size_t k : best_voters) {
-    chosen.push_back(pairs[proposals[k].pair]);
+    out.voting_pairs.push_back(proposals[k].pair);
   }
+  out.stands_out = !best_voters.empty() &&
+                   best_share >= options.min_found_share &&
+                   best_share >= options.min_share_ratio * step.next_found_share;
+  return out;
+}
+
+ConflictJoinStep JoinByLeastConflict(
+    const Reconstruction& other, const std::vector<PairMatches>& pairs,
+    const std::unordered_set<Point3DId>& model_confusing,
+    const std::unordered_set<Point3DId>& other_confusing,
+    const ConflictJoinOptions& options, const ModelMergeOptions& merge,
+    Reconstruction* model) {
+  merge.Check();
+  const LeastConflictJoin best =
+      FindLeastConflictJoin(*model, other, pairs, model_confusing,
+                            other_confusing, options, merge.max_relative_error);
+  ConflictJoinStep step = best.step;
+  if (!best.stands_out) return step;
+  std::vector<PairMatches> chosen;
+  chosen.reserve(best.voting_pairs.size());
+  for (const size_t k : best.voting_pairs) chosen.push_back(pairs[k]);
   step.merge = MergeThroughMatches(other, chosen, merge, model);
   return step;
 }

@@ -12,16 +12,21 @@
 // twenty-second session). What separates them is what the proposed join
 // predicts: a photo of one model, placed by the join, should see the unique
 // points (the clutter) of the other model's photos it is paired with, and
-// match them. Under a doppelganger join it matches the repeated facade only;
-// under the true join it matches the clutter too. Each family of proposals
-// is scored by the share of the unique points it predicts that the pairs
-// voting for it do match, and the best, if it clears a bar, is joined
-// through its voting pairs (MergeThroughMatches).
+// match them where the join lands them. Under a doppelganger join it
+// matches the repeated facade only, or ties the clutter to other points
+// than the join predicts (two photos near each other in a street match some
+// clutter truly, whichever shift of the facade their pair's facade matches
+// propose); under the true join it matches the clutter where predicted.
+// Each family of proposals is scored by the share of the unique points it
+// predicts that the pairs voting for it match in agreement with it, and the
+// best, if it clears a bar, is joined through its voting pairs
+// (MergeThroughMatches).
 #pragma once
 
 #include <unordered_set>
 #include <vector>
 
+#include "hisfm/eval/similarity_alignment.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/model.h"
 #include "hisfm/recon/model_merge.h"
@@ -49,10 +54,12 @@ struct ConflictJoinOptions {
   int min_votes = 3;
   /// ... and at least this many unique points predicted in their photos...
   int min_expected = 50;
-  /// ... of which at least this share are matched. On the two streets of
-  /// crossing_streets_1000_s3 (tuning) the true join's voting pairs matched
-  /// 66% of the unique points it predicts, each of the eight leading
-  /// doppelganger joins 0.9% or less.
+  /// ... of which at least this share are matched in agreement with the
+  /// join. On the two streets of crossing_streets_1000_s3 (tuning) the true
+  /// join's voting pairs matched 66% of the unique points it predicts, each
+  /// of the eight leading doppelganger joins 0.9% or less (measured when a
+  /// match counted wherever it tied the point; docs/decisions.md,
+  /// twenty-second and twenty-fourth sessions).
   double min_found_share = 0.3;
   /// ... and at least this many times the share of the next best join (a
   /// join that does not stand out is left undone). On
@@ -85,6 +92,40 @@ struct ConflictJoinStep {
   /// the bar or the merge refused it).
   ModelMergeStep merge;
 };
+
+/// The proposed join between two models that conflicts least with their
+/// unique points (FindLeastConflictJoin).
+struct LeastConflictJoin {
+  /// The counts (merge left as it is: nothing is merged).
+  ConflictJoinStep step;
+  /// Whether the best join clears the options' bars (votes, predicted
+  /// points, the share found and the margin over the next best).
+  bool stands_out = false;
+  /// The best join's voting pairs, as indices into the pairs given (empty
+  /// when no join was scored).
+  std::vector<size_t> voting_pairs;
+  /// The best join: the similarity from `other`'s frame to `model`'s that
+  /// its strongest pair proposed (identity when no join was scored).
+  Sim3d model_from_other;
+};
+
+/// Scores the joins that the pairs between `model` and `other` propose and
+/// returns the best: every pair proposes the similarity of its own matched
+/// 3D points, the proposals fall into families of agreeing ones, and each
+/// family is scored by the share of the unique points (all but
+/// `model_confusing` and `other_confusing`) it predicts in its voting pairs'
+/// photos that those pairs match. `pairs` are verified pairs with one image
+/// in each model (others are ignored), with their inlier matches; matched
+/// points agree within `max_relative_error` of their depth. Both models
+/// must come from one database and use cameras that
+/// verify/camera_projection.h supports; they may share points and images
+/// (halves of one model).
+LeastConflictJoin FindLeastConflictJoin(
+    const Reconstruction& model, const Reconstruction& other,
+    const std::vector<PairMatches>& pairs,
+    const std::unordered_set<Point3DId>& model_confusing,
+    const std::unordered_set<Point3DId>& other_confusing,
+    const ConflictJoinOptions& options, double max_relative_error);
 
 /// Joins `other` into `model` (as MergeThroughMatches does) through the
 /// pairs of the proposed join that conflicts least with the two models'

