@@ -7,7 +7,10 @@
 // least with their unique points (recon/conflict_join.h), and every
 // verified pair whose images one of the chain's models holds is put to the
 // transfer test against it (verify/model_agreement.h). A pair that agrees
-// keeps only its matches that agree; the others are removed. The result is a
+// keeps only its matches that agree; the others are removed, except a
+// loop's closures, which the chain's drift can push past the test and which
+// are found among them by the same conflict with the unique points
+// (close_loops_by_conflict). The result is a
 // cleaned copy of the database that the rest of the mapper reads: far pairs
 // of a sequence are its loop closures, kept only when they agree with the
 // odometry, as a SLAM system keeps them (graph/sequence_chain.h cites the
@@ -104,10 +107,10 @@ struct SequencePassOptions {
   /// bent. The model is cut into the two halves of the chain's order; the
   /// pairs across them that the transfer test rejects (more than
   /// break_window places apart) propose joins of one half onto the other,
-  /// as two pieces do in the join by conflict, and
-  /// the voting pairs of the proposal that conflicts least with the unique
-  /// points, if it clears the join by conflict's bars, are kept whole
-  /// (docs/decisions.md, twenty-fourth session).
+  /// as two pieces do in the join by conflict, and the voting pairs of the
+  /// proposal that conflicts least with the unique points, if it clears the
+  /// join by conflict's bars, are kept whole (docs/decisions.md,
+  /// twenty-fourth session).
   bool close_loops_by_conflict = true;
   /// A loop closure clears conflict_join's bars, with up to this many
   /// proposed joins examined (a loop's drifted closures are a small family
