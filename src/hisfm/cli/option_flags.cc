@@ -44,6 +44,11 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.sequence_min_agreeing_share",
         seq.agreement.min_agreeing_share,
         "A pair is removed when fewer of its matches agree with the chain");
+  visit("--HiSfM.sequence_chain_segment_images", seq.chain_segment_images,
+        "Reconstruct the chain in overlapping segments of at most this many "
+        "images, merged through their shared images (0 = one run)");
+  visit("--HiSfM.sequence_chain_segment_overlap", seq.chain_segment_overlap,
+        "Images consecutive chain segments share");
   visit("--HiSfM.sequence_require_one_model", seq.require_one_model,
         "Clean the pairs only when the chain's pieces join into one model");
   visit("--HiSfM.sequence_near_join_window", seq.near_join_window,

@@ -145,4 +145,48 @@ std::vector<ImagePair> NearChainPairs(const SequenceChain& chain,
   return near;
 }
 
+std::vector<std::vector<ImagePair>> ChainSegments(const SequenceChain& chain,
+                                                  size_t segment_images,
+                                                  size_t overlap) {
+  const size_t n = chain.order.size();
+  if (segment_images == 0 || n <= segment_images) {
+    if (chain.links.empty()) return {};
+    return {chain.links};
+  }
+  ThrowUnless(overlap > 0 && overlap < segment_images,
+              StrCat("chain segments: the overlap (", overlap,
+                     ") must be above 0 and below the segment's size (",
+                     segment_images, ")"));
+  std::unordered_map<ImageId, size_t> place;
+  for (size_t k = 0; k < n; ++k) place[chain.order[k]] = k;
+  // m segments of one length, evenly spread from the first place to the
+  // last: consecutive ones share at least `overlap` places.
+  const size_t m =
+      (n - overlap + segment_images - overlap - 1) / (segment_images - overlap);
+  const size_t length = (n - overlap + m - 1) / m + overlap;
+  std::vector<std::pair<size_t, size_t>> spans;  // [begin, end) places
+  for (size_t j = 0; j < m; ++j) {
+    const size_t begin = j * (n - length) / (m - 1);
+    spans.push_back({begin, begin + length});
+  }
+  std::vector<std::vector<ImagePair>> segments(spans.size());
+  for (const ImagePair& link : chain.links) {
+    const auto a = place.find(link.image_id1);
+    const auto b = place.find(link.image_id2);
+    if (a == place.end() || b == place.end()) continue;
+    const size_t lo = std::min(a->second, b->second);
+    const size_t hi = std::max(a->second, b->second);
+    for (size_t j = 0; j < spans.size(); ++j) {
+      if (lo >= spans[j].first && hi < spans[j].second) {
+        segments[j].push_back(link);
+      }
+    }
+  }
+  segments.erase(
+      std::remove_if(segments.begin(), segments.end(),
+                     [](const std::vector<ImagePair>& s) { return s.empty(); }),
+      segments.end());
+  return segments;
+}
+
 }  // namespace hisfm

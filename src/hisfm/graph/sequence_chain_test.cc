@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <random>
+#include <set>
 
 #include "hisfm/util/error.h"
 
@@ -142,6 +143,53 @@ TEST(SequenceChain, NearPairsStayInsideAnUnbrokenStretch) {
   EXPECT_EQ(NearChainPairs(chain, pairs, 1),
             (std::vector<ImagePair>{ImagePair(5, 6)}));
   EXPECT_TRUE(NearChainPairs(chain, pairs, 0).empty());
+}
+
+// The images of a segment's links.
+std::set<ImageId> SegmentImages(const std::vector<ImagePair>& links) {
+  std::set<ImageId> images;
+  for (const ImagePair& p : links) images.insert({p.image_id1, p.image_id2});
+  return images;
+}
+
+TEST(SequenceChain, SegmentsOverlapAndCoverEveryLink) {
+  const ViewGraph graph = WalkGraph(100, 5);
+  const SequenceChain chain =
+      FindSequenceChain(graph, NamesInOrder(graph.Images()), SequenceOptions());
+  ASSERT_EQ(chain.links.size(), 99u);
+  const auto segments = ChainSegments(chain, 30, 5);
+  // The fewest segments of at most 30 images that overlap by 5: 4.
+  ASSERT_EQ(segments.size(), 4u);
+  std::set<ImagePair> covered;
+  for (size_t j = 0; j < segments.size(); ++j) {
+    const std::set<ImageId> images = SegmentImages(segments[j]);
+    EXPECT_LE(images.size(), 30u);
+    EXPECT_TRUE(std::is_sorted(segments[j].begin(), segments[j].end()));
+    covered.insert(segments[j].begin(), segments[j].end());
+    if (j == 0) continue;
+    const std::set<ImageId> before = SegmentImages(segments[j - 1]);
+    std::vector<ImageId> shared;
+    std::set_intersection(before.begin(), before.end(), images.begin(),
+                          images.end(), std::back_inserter(shared));
+    EXPECT_GE(shared.size(), 5u) << "segments " << j - 1 << " and " << j;
+  }
+  EXPECT_EQ(covered,
+            std::set<ImagePair>(chain.links.begin(), chain.links.end()));
+  EXPECT_EQ(*SegmentImages(segments.front()).begin(), chain.order.front());
+  EXPECT_EQ(*SegmentImages(segments.back()).rbegin(), chain.order.back());
+}
+
+TEST(SequenceChain, ShortChainsAreOneSegment) {
+  const ViewGraph graph = WalkGraph(20, 5);
+  const SequenceChain chain =
+      FindSequenceChain(graph, NamesInOrder(graph.Images()), SequenceOptions());
+  EXPECT_EQ(ChainSegments(chain, 20, 5),
+            std::vector<std::vector<ImagePair>>{chain.links});
+  EXPECT_EQ(ChainSegments(chain, 0, 0),
+            std::vector<std::vector<ImagePair>>{chain.links});
+  EXPECT_EQ(ChainSegments(chain, 10, 3).size(), 3u);
+  EXPECT_THROW(ChainSegments(chain, 10, 0), Error);
+  EXPECT_THROW(ChainSegments(chain, 10, 10), Error);
 }
 
 TEST(SequenceChain, OptionsAreChecked) {

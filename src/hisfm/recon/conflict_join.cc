@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <numeric>
 #include <optional>
 #include <unordered_map>
@@ -229,8 +230,16 @@ LeastConflictJoin FindLeastConflictJoin(
   const Projections other_cameras = CameraProjections(other);
   const double max_rotation = options.max_rotation_deg * M_PI / 180.0;
   std::vector<bool> covered(proposals.size(), false);
-  std::vector<size_t> best_voters;
-  double best_share = -1.0;
+  // The scored families: the share of predicted unique points found, the
+  // voters (sorted), the join and its counts.
+  struct Family {
+    double share = 0.0;
+    std::vector<size_t> voters;
+    Sim3d join;
+    size_t expected = 0;
+    size_t found = 0;
+  };
+  std::vector<Family> families;
   for (const size_t seed : order) {
     if (covered[seed]) continue;
     if (step.num_hypotheses == static_cast<size_t>(options.max_hypotheses)) {
@@ -259,17 +268,35 @@ LeastConflictJoin FindLeastConflictJoin(
               &expected, &found);
     }
     if (expected < static_cast<size_t>(options.min_expected)) continue;
-    const double share = static_cast<double>(found) / expected;
-    if (share <= best_share) {
-      step.next_found_share = std::max(step.next_found_share, share);
-    } else {
-      if (best_share >= 0.0) step.next_found_share = best_share;
-      best_share = share;
-      best_voters = std::move(voters);
-      out.model_from_other = join;
-      step.num_votes = best_voters.size();
-      step.num_expected = expected;
-      step.num_found = found;
+    families.push_back({static_cast<double>(found) / expected,
+                        std::move(voters), join, expected, found});
+  }
+  // The best family (the first on a tie), and the best of those that share
+  // no voting pair with it: a family that shares voters proposes nearly the
+  // same join (a drifted piece's true join splits into several such, each
+  // within max_rotation_deg of its seed), not a rival one.
+  const Family* best = nullptr;
+  for (const Family& f : families) {
+    if (!best || f.share > best->share) best = &f;
+  }
+  std::vector<size_t> best_voters;
+  double best_share = -1.0;
+  if (best) {
+    best_voters = best->voters;
+    best_share = best->share;
+    out.model_from_other = best->join;
+    step.num_votes = best_voters.size();
+    step.num_expected = best->expected;
+    step.num_found = best->found;
+    for (const Family& f : families) {
+      if (&f == best) continue;
+      std::vector<size_t> shared;
+      std::set_intersection(f.voters.begin(), f.voters.end(),
+                            best_voters.begin(), best_voters.end(),
+                            std::back_inserter(shared));
+      if (shared.empty()) {
+        step.next_found_share = std::max(step.next_found_share, f.share);
+      }
     }
   }
   for (const size_t k : best_voters) {

@@ -62,7 +62,14 @@ struct ConflictJoinOptions {
   /// twenty-second and twenty-fourth sessions).
   double min_found_share = 0.3;
   /// ... and at least this many times the share of the next best join (a
-  /// join that does not stand out is left undone). On
+  /// join that does not stand out is left undone). The next best is the
+  /// best family that shares no voting pair with it: families that share
+  /// voters propose nearly one join (where a piece drifted, its true join
+  /// splits into several, each seeded by a pair turned a few degrees from
+  /// the others). On crossing_streets_1000_s2 (held-out) the true join
+  /// (38.5%) was refused against its own sibling (26.0%); the best family
+  /// left once its voters are set aside matched 13.3% (docs/decisions.md,
+  /// twenty-fifth session). On
   /// crossing_streets_1000_s3 the true join matched 61% and the next 0.9%;
   /// where the pieces are short stretches of one street, few of their
   /// points are tied elsewhere inside them and the pattern passes for
@@ -85,8 +92,9 @@ struct ConflictJoinStep {
   size_t num_votes = 0;
   size_t num_expected = 0;
   size_t num_found = 0;
-  /// The share of predicted unique points matched under the next best join
-  /// (0 when no other was scored).
+  /// The share of predicted unique points matched under the next best join,
+  /// the best that shares no voting pair with the best one (0 when no such
+  /// join was scored).
   double next_found_share = 0.0;
   /// The merge through the voting pairs (merged false when no join cleared
   /// the bar or the merge refused it).

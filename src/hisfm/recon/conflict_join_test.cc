@@ -165,6 +165,36 @@ TEST(FindLeastConflictJoin, MatchesThatContradictTheJoinAreNotFound) {
   EXPECT_FALSE(shifted.stands_out);
 }
 
+// Families that share voting pairs propose nearly one join and are no
+// rivals. With a tolerance of 30% of the depth (3 m at 10 m), a pair whose
+// pattern matches shift one column (2.5 m) votes both for the true join and
+// for the join two columns off, which the pair shifted by two seeds: the
+// two families share it, and the true join stands out against none. A
+// rival that shares no voter (five columns off) is the next best, and as
+// it finds nearly as much, the true join no longer stands out.
+TEST(FindLeastConflictJoin, FamiliesThatShareVotersAreNoRivals) {
+  const Reconstruction model = MakeModel(1, Sim3d());
+  const Reconstruction other = MakeModel(3, OtherFromWorld());
+  std::vector<PairMatches> pairs = {TruePair(2, 3), ShiftedPattern(1, 3, 1),
+                                    ShiftedPattern(1, 4, 2)};
+  ConflictJoinOptions options = OnePairPerJoin();
+  options.max_rotation_deg = 1.0;
+  const LeastConflictJoin siblings =
+      FindLeastConflictJoin(model, other, pairs, {}, {}, options, 0.3);
+  EXPECT_EQ(siblings.step.num_hypotheses, 2u);
+  EXPECT_EQ(siblings.voting_pairs, (std::vector<size_t>{0, 1}));
+  EXPECT_EQ(siblings.step.next_found_share, 0.0);
+  EXPECT_TRUE(siblings.stands_out);
+
+  pairs.push_back(ShiftedPattern(2, 3, 5));
+  const LeastConflictJoin rival =
+      FindLeastConflictJoin(model, other, pairs, {}, {}, options, 0.3);
+  EXPECT_EQ(rival.step.num_hypotheses, 3u);
+  EXPECT_EQ(rival.voting_pairs, (std::vector<size_t>{0, 1}));
+  EXPECT_GT(rival.step.next_found_share, 0.5);
+  EXPECT_FALSE(rival.stands_out);
+}
+
 TEST(JoinByLeastConflict, RefusesWhenEveryJoinMissesTheUniquePoints) {
   Reconstruction model = MakeModel(1, Sim3d());
   const Reconstruction other = MakeModel(3, OtherFromWorld());

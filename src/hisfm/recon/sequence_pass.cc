@@ -21,7 +21,16 @@ namespace fs = std::filesystem;
 
 void SequencePassOptions::Check() const {
   HISFM_CHECK_OPTION(near_join_window, near_join_window >= 0, ">= 0");
+  HISFM_CHECK_OPTION(chain_segment_images,
+                     chain_segment_images == 0 || chain_segment_images >= 3,
+                     "0 or >= 3");
+  HISFM_CHECK_OPTION(chain_segment_overlap,
+                     chain_segment_images == 0 ||
+                         (chain_segment_overlap >= 1 &&
+                          chain_segment_overlap < chain_segment_images),
+                     "in [1, chain_segment_images)");
   sequence.Check();
+  segment_merge.Check();
   agreement.Check();
   unique_points.Check();
   conflict_join.Check();
@@ -42,6 +51,7 @@ nlohmann::json SequencePassResult::ToJson() const {
           {"links", chain.links.size()},
           {"breaks", chain.num_breaks},
           {"ran", ran},
+          {"segments", num_segments},
           {"models", num_models},
           {"joined", num_joined},
           {"joined_near", num_joined_near},
@@ -57,6 +67,20 @@ nlohmann::json SequencePassResult::ToJson() const {
 
 namespace {
 
+// The inlier matches of `pairs` (those in the database), by ascending pair
+// id.
+std::vector<PairMatches> ReadPairMatches(const Database& database,
+                                         const std::vector<ImagePair>& pairs) {
+  std::vector<PairMatches> out;
+  out.reserve(pairs.size());
+  database.ForEachInlierMatches(
+      pairs, [&](const ImagePair& pair, FeatureMatchSpan matches) {
+        out.push_back(
+            {pair, std::vector<FeatureMatch>(matches.begin(), matches.end())});
+      });
+  return out;
+}
+
 // The inlier matches of the pairs of `candidates` with one image in `a` and
 // the other in `b`.
 std::vector<PairMatches> PairsAcross(const Database& database,
@@ -70,14 +94,7 @@ std::vector<PairMatches> PairsAcross(const Database& database,
       across.push_back(p);
     }
   }
-  std::vector<PairMatches> out;
-  out.reserve(across.size());
-  database.ForEachInlierMatches(
-      across, [&](const ImagePair& pair, FeatureMatchSpan matches) {
-        out.push_back({pair, std::vector<FeatureMatch>(matches.begin(),
-                                                       matches.end())});
-      });
-  return out;
+  return ReadPairMatches(database, across);
 }
 
 // The base, then the models of `rest` not joined into it.
@@ -220,9 +237,12 @@ std::vector<ImagePair> LoopClosures(const Database& database,
   }
   if (held.size() < 2) return {};
   std::sort(held.begin(), held.end());
+  // The model's images in the first half of its order: those placed before
+  // the middle one's place.
+  const size_t middle = held[held.size() / 2].first;
   std::set<ImageId> first, second;
-  for (size_t i = 0; i < held.size(); ++i) {
-    (i < held.size() / 2 ? first : second).insert(held[i].second);
+  for (const auto& [place, id] : held) {
+    (place < middle ? first : second).insert(id);
   }
   // Pairs within the break test's window are the chain's own neighbours,
   // not closures of a loop.
@@ -232,21 +252,16 @@ std::vector<ImagePair> LoopClosures(const Database& database,
     const auto a = position.find(p.image_id1);
     const auto b = position.find(p.image_id2);
     if (a == position.end() || b == position.end()) continue;
-    const size_t distance = a->second > b->second ? a->second - b->second
-                                                  : b->second - a->second;
-    if (distance <= window) continue;
-    if ((first.count(p.image_id1) && second.count(p.image_id2)) ||
-        (second.count(p.image_id1) && first.count(p.image_id2))) {
-      across.push_back(p);
-    }
+    const size_t lo = std::min(a->second, b->second);
+    const size_t hi = std::max(a->second, b->second);
+    if (hi - lo > window && lo < middle && hi >= middle) across.push_back(p);
   }
   if (across.empty()) return {};
   Reconstruction first_half = model;
   RemoveImages(second, &first_half);
   Reconstruction second_half = model;
   RemoveImages(first, &second_half);
-  const std::vector<PairMatches> matches =
-      PairsAcross(database, across, first_half, second_half);
+  const std::vector<PairMatches> matches = ReadPairMatches(database, across);
   ConflictJoinOptions bars = options.conflict_join;
   bars.max_hypotheses = options.loop_closure_max_hypotheses;
   // Confusing points are found inside each half: in the whole model the
@@ -279,6 +294,74 @@ std::vector<ImagePair> LoopClosures(const Database& database,
   std::vector<ImagePair> closures;
   for (const size_t k : best.voting_pairs) closures.push_back(matches[k].pair);
   return closures;
+}
+
+// The chain's models: its segments (ChainSegments) reconstructed one by
+// one, their models merged through the images they share, the largest
+// first, then the others without the images of those before them. Throws
+// hisfm::Error when every segment's reconstruction throws.
+std::vector<Reconstruction> ReconstructChain(
+    const std::string& database_path, const SequenceChain& chain,
+    const std::string& work_path, const ChainReconstructor& reconstruct,
+    const SequencePassOptions& options, SequencePassResult* result) {
+  const std::vector<std::vector<ImagePair>> segments =
+      ChainSegments(chain, static_cast<size_t>(options.chain_segment_images),
+                    static_cast<size_t>(options.chain_segment_overlap));
+  result->num_segments = segments.size();
+  const std::string chain_db = work_path + "/chain.db";
+  std::vector<Reconstruction> models;
+  std::string last_error;
+  bool any_reconstructed = false;
+  for (size_t j = 0; j < segments.size(); ++j) {
+    if (segments.size() > 1) {
+      HISFM_LOG_INFO(
+          "sequence: chain segment {}/{}: {} links (the run below sees the "
+          "other images of the chain as isolated)",
+          j + 1, segments.size(), segments[j].size());
+    }
+    std::error_code ec;
+    fs::remove(chain_db, ec);
+    WriteFilteredDatabase(database_path, chain_db, segments[j]);
+    try {
+      for (Reconstruction& m : reconstruct(chain_db)) {
+        models.push_back(std::move(m));
+      }
+      any_reconstructed = true;
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      // The other segments may still join around it.
+      if (segments.size() > 1) {
+        HISFM_LOG_WARN("sequence: chain segment {}/{} gave no model ({})",
+                       j + 1, segments.size(), e.what());
+      }
+      last_error = e.what();
+    }
+  }
+  ThrowUnless(any_reconstructed || segments.empty(), last_error);
+  if (segments.size() <= 1 || models.empty()) return models;
+  std::vector<Reconstruction> merged;
+  while (!models.empty()) {
+    ModelMergeResult r = MergeModels(models, options.segment_merge);
+    std::vector<Reconstruction> left = UnmergedModels(models, r);
+    merged.push_back(std::move(r.model));
+    models = std::move(left);
+  }
+  std::sort(merged.begin(), merged.end(),
+            [](const Reconstruction& a, const Reconstruction& b) {
+              return a.NumRegImages() > b.NumRegImages();
+            });
+  std::vector<Reconstruction> out;
+  out.push_back(std::move(merged[0]));
+  merged.erase(merged.begin());
+  for (Reconstruction& m : DisjointModels(out[0], std::move(merged), 2)) {
+    out.push_back(std::move(m));
+  }
+  HISFM_LOG_INFO(
+      "sequence: the {} segments' models merged into {} model(s), "
+      "the largest of {} images",
+      segments.size(), out.size(), out[0].NumRegImages());
+  return out;
 }
 
 // Joins the chain's models, judges every pair inside them and writes the
@@ -381,13 +464,10 @@ SequencePassResult RunSequencePass(const std::string& database_path,
   std::error_code ec;
   fs::create_directories(work_path, ec);
   ThrowUnless(!ec, StrCat("cannot create ", work_path, ": ", ec.message()));
-  const std::string chain_db = work_path + "/chain.db";
-  fs::remove(chain_db, ec);
-  WriteFilteredDatabase(database_path, chain_db, chain.links);
-
   std::vector<Reconstruction> models;
   try {
-    models = reconstruct(chain_db);
+    models = ReconstructChain(database_path, chain, work_path, reconstruct,
+                              options, &result);
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {

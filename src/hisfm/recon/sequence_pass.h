@@ -40,6 +40,18 @@ namespace hisfm {
 struct SequencePassOptions {
   /// Whether and how the name order is used.
   SequenceOptions sequence;
+  /// The chain is reconstructed in overlapping segments of at most this
+  /// many images (ChainSegments), each by its own mapper run, and their
+  /// models are merged through the images they share (MergeModels): an
+  /// incremental mapper's global bundle adjustments make one run on a long
+  /// chain grow faster than its length (a 5,000-image street's chain had
+  /// registered 1,181 images after 10 minutes). 0 reconstructs it in one
+  /// run.
+  int chain_segment_images = 300;
+  /// Images consecutive segments share (at least).
+  int chain_segment_overlap = 30;
+  /// How the segments' models are merged through their shared images.
+  ModelMergeOptions segment_merge;
   /// The transfer test of each pair against the chain's models.
   ModelAgreementOptions agreement;
   /// Clean only when the chain's pieces were joined into one model. Where
@@ -137,7 +149,10 @@ struct SequencePassResult {
   bool ran = false;
   /// Verified pairs of the input (with at least min_num_matches inliers).
   size_t num_input_pairs = 0;
-  /// The chain's models, and how many of them were joined into others.
+  /// Segments the chain was reconstructed in (chain_segment_images).
+  size_t num_segments = 0;
+  /// The chain's models (after the segments' merge), and how many of them
+  /// were joined into others.
   size_t num_models = 0;
   size_t num_joined = 0;
   /// Of those, the models joined through their near pairs
@@ -173,9 +188,9 @@ struct SequencePassResult {
   nlohmann::json ToJson() const;
 };
 
-/// Reconstructs a database holding only the chain's links into numbered
-/// models (the mapper without the sequence pass); throws hisfm::Error when
-/// no model could be made.
+/// Reconstructs a database holding only some of the chain's links (one
+/// segment) into numbered models (the mapper without the sequence pass);
+/// throws hisfm::Error when no model could be made.
 using ChainReconstructor = std::function<std::vector<Reconstruction>(
     const std::string& chain_database_path)>;
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <random>
+#include <set>
 
 #include "hisfm/eval/similarity_alignment.h"
 #include "hisfm/io/database_writer.h"
@@ -467,6 +468,124 @@ TEST(SequencePass, AJoinThatTurnsHalfTheLoopFarIsNoClosure) {
   EXPECT_EQ(
       RunOnDriftedLoop(pass, SecondFromWorld(), wide, "wide").num_loop_closures,
       1u);
+}
+
+// The two streets as one model in the world's frame, one 3D point for each
+// street point, observed by all eight photos.
+Reconstruction OneChainModel(const TwoStreets& streets) {
+  const Sim3d world_from_second = SecondFromWorld().Inverse();
+  Reconstruction model = streets.pieces[0];
+  for (auto [id, image] : streets.pieces[1].images) {
+    image.cam_from_world =
+        world_from_second.TransformPose(image.cam_from_world);
+    for (size_t k = 0; k < image.points2D.size(); ++k) {
+      model.points3D.at(image.points2D[k].point3D_id)
+          .track.push_back({id, static_cast<Point2DIdx>(k)});
+    }
+    model.images[id] = image;
+  }
+  return model;
+}
+
+// `model` moved into the frame that `to_frame` maps its world to.
+Reconstruction InFrame(Reconstruction model, const Sim3d& to_frame) {
+  for (auto& [id, image] : model.images) {
+    image.cam_from_world = to_frame.TransformPose(image.cam_from_world);
+  }
+  for (auto& [id, point] : model.points3D) point.xyz = to_frame * point.xyz;
+  return model;
+}
+
+// A long chain is reconstructed in overlapping segments, each by its own
+// run on a database of its links alone (here each run returns the true
+// model of its images in a frame of its own); the segments' models merge
+// through their shared images into one model at the truth, and the pairs
+// are judged against it as against one run's model.
+TEST(SequencePass, ALongChainIsReconstructedInSegmentsThatMerge) {
+  TwoStreetsPass pass;
+  SequencePassOptions& options = pass.options;
+  options.chain_segment_images = 5;
+  options.chain_segment_overlap = 2;
+  const Reconstruction truth = OneChainModel(pass.streets);
+  std::vector<std::set<ImageId>> calls;
+  const ChainReconstructor segments = [&](const std::string& chain_db) {
+    std::set<ImageId> images;
+    for (const ImagePair& p : ReadViewGraph(Database(chain_db), 1).Pairs()) {
+      images.insert({p.image_id1, p.image_id2});
+    }
+    std::set<ImageId> others;
+    for (const auto& [id, image] : truth.images) {
+      if (!images.count(id)) others.insert(id);
+    }
+    Reconstruction model = truth;
+    RemoveImages(others, &model);
+    calls.push_back(images);
+    // Each run's model stands in a frame of its own.
+    return std::vector<Reconstruction>{
+        InFrame(model, calls.size() == 1 ? Sim3d() : SecondFromWorld())};
+  };
+  const SequencePassResult result = RunSequencePass(
+      pass.tmp / "database.db", 1, pass.tmp / "segments", segments, options);
+  ASSERT_TRUE(result.ran) << result.note;
+  // 8 images in segments of at most 5 sharing 2: images 1-5 and 4-8.
+  ASSERT_EQ(calls.size(), 2u);
+  EXPECT_EQ(calls[0], (std::set<ImageId>{1, 2, 3, 4, 5}));
+  EXPECT_EQ(calls[1], (std::set<ImageId>{4, 5, 6, 7, 8}));
+  EXPECT_EQ(result.num_segments, 2u);
+  EXPECT_EQ(result.ToJson()["segments"], 2u);
+  EXPECT_EQ(result.num_models, 1u);
+  ExpectStreetsJoinedAtTruth(result);
+  const ViewGraph cleaned =
+      ReadViewGraph(Database(result.cleaned_database_path), 1);
+  EXPECT_EQ(cleaned.Weight(1, 6), 0u);
+  EXPECT_EQ(cleaned.Weight(1, 2), static_cast<size_t>(kNumPoints));
+
+  // Segments of 0 images: one run on every link.
+  calls.clear();
+  options.chain_segment_images = 0;
+  const SequencePassResult whole = RunSequencePass(
+      pass.tmp / "database.db", 1, pass.tmp / "whole", segments, options);
+  ASSERT_TRUE(whole.ran) << whole.note;
+  ASSERT_EQ(calls.size(), 1u);
+  EXPECT_EQ(calls[0].size(), 8u);
+  EXPECT_EQ(whole.num_segments, 1u);
+  EXPECT_EQ(whole.num_removed, result.num_removed);
+}
+
+// A segment whose run fails leaves the others: their models are still the
+// chain's, and only when every run fails is the chain not reconstructed.
+TEST(SequencePass, AFailingSegmentLeavesTheOthers) {
+  TwoStreetsPass pass;
+  SequencePassOptions& options = pass.options;
+  options.chain_segment_images = 5;
+  options.chain_segment_overlap = 2;
+  options.require_one_model = false;
+  const Reconstruction truth = OneChainModel(pass.streets);
+  int calls = 0;
+  const ChainReconstructor second_fails = [&](const std::string&) {
+    if (++calls == 2) throw Error("no good initial image pair");
+    Reconstruction model = truth;
+    RemoveImages({6, 7, 8}, &model);
+    return std::vector<Reconstruction>{model};
+  };
+  const SequencePassResult result = RunSequencePass(
+      pass.tmp / "database.db", 1, pass.tmp / "one", second_fails, options);
+  ASSERT_TRUE(result.ran) << result.note;
+  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(result.num_registered, 5u);
+
+  calls = 0;
+  const ChainReconstructor failing = [&](const std::string&) {
+    ++calls;
+    throw Error("no good initial image pair");
+    return std::vector<Reconstruction>();
+  };
+  const SequencePassResult none = RunSequencePass(
+      pass.tmp / "database.db", 1, pass.tmp / "none", failing, options);
+  EXPECT_EQ(calls, 2);
+  EXPECT_FALSE(none.ran);
+  EXPECT_NE(none.note.find("no good initial image pair"), std::string::npos)
+      << none.note;
 }
 
 }  // namespace
