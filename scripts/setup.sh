@@ -11,6 +11,7 @@ PACKAGES=(
   colmap
   libeigen3-dev libceres-dev libsqlite3-dev sqlite3
   libcli11-dev nlohmann-json3-dev libspdlog-dev libfmt-dev
+  libboost-graph-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   # The Python module (build/python) and its tests.
   pybind11-dev python3-dev python3-numpy python3-pytest

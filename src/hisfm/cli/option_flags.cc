@@ -232,6 +232,11 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.attach_local_only", o->attach_local_only,
         "Attach leaves with local bundle adjustment only, then one "
         "global bundle adjustment");
+  visit("--HiSfM.scaffold_segment_images", o->scaffold_segment_images,
+        "Reconstruct a larger scaffold in overlapping segments of at most "
+        "this many images, merged through their shared images (0 = one run)");
+  visit("--HiSfM.scaffold_segment_overlap", o->scaffold_segment_overlap,
+        "Images consecutive scaffold segments share");
   visit("--HiSfM.scaffold_ba_global_ratio",
         o->scaffold_ba_global_ratio,
         "Scaffold: growth in images or points between global bundle "

@@ -5,6 +5,7 @@
 #include <random>
 #include <unordered_map>
 
+#include "hisfm/graph/graph_segments.h"
 #include "hisfm/util/error.h"
 #include "hisfm/util/string_util.h"
 
@@ -153,22 +154,10 @@ std::vector<std::vector<ImagePair>> ChainSegments(const SequenceChain& chain,
     if (chain.links.empty()) return {};
     return {chain.links};
   }
-  ThrowUnless(overlap > 0 && overlap < segment_images,
-              StrCat("chain segments: the overlap (", overlap,
-                     ") must be above 0 and below the segment's size (",
-                     segment_images, ")"));
+  const std::vector<std::pair<size_t, size_t>> spans =
+      OverlappingSpans(n, segment_images, overlap);
   std::unordered_map<ImageId, size_t> place;
   for (size_t k = 0; k < n; ++k) place[chain.order[k]] = k;
-  // m segments of one length, evenly spread from the first place to the
-  // last: consecutive ones share at least `overlap` places.
-  const size_t m =
-      (n - overlap + segment_images - overlap - 1) / (segment_images - overlap);
-  const size_t length = (n - overlap + m - 1) / m + overlap;
-  std::vector<std::pair<size_t, size_t>> spans;  // [begin, end) places
-  for (size_t j = 0; j < m; ++j) {
-    const size_t begin = j * (n - length) / (m - 1);
-    spans.push_back({begin, begin + length});
-  }
   std::vector<std::vector<ImagePair>> segments(spans.size());
   for (const ImagePair& link : chain.links) {
     const auto a = place.find(link.image_id1);

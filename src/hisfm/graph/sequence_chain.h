@@ -91,15 +91,15 @@ std::vector<ImagePair> NearChainPairs(const SequenceChain& chain,
                                       const std::vector<ImagePair>& pairs,
                                       int window);
 
-/// The chain's links cut into overlapping segments of the name order: the
-/// fewest segments of at most segment_images places, all of one length and
-/// spread evenly from the first place to the last, such that consecutive
-/// ones share at least `overlap` places (so that their models can be merged
-/// through those images); each holds the links whose two images lie in its
-/// span (in the chain's sorted order). A chain of at most segment_images
-/// images, or segment_images = 0, gives one segment with every link.
-/// Segments without a link are left out. Throws hisfm::Error unless
-/// 0 < overlap < segment_images (when segment_images > 0).
+/// The chain's links cut into overlapping segments of the name order
+/// (OverlappingSpans, graph_segments.h: the fewest segments of at most
+/// segment_images places, all of one length and spread evenly, such that
+/// consecutive ones share at least `overlap` places, so that their models
+/// can be merged through those images); each holds the links whose two images
+/// lie in its span (in the chain's sorted order). A chain of at most
+/// segment_images images, or segment_images = 0, gives one segment with every
+/// link. Segments without a link are left out. Throws hisfm::Error unless 0 <
+/// overlap < segment_images (when segment_images > 0).
 std::vector<std::vector<ImagePair>> ChainSegments(const SequenceChain& chain,
                                                   size_t segment_images,
                                                   size_t overlap);

@@ -279,32 +279,27 @@ LeastConflictJoin FindLeastConflictJoin(
   for (const Family& f : families) {
     if (!best || f.share > best->share) best = &f;
   }
-  std::vector<size_t> best_voters;
-  double best_share = -1.0;
-  if (best) {
-    best_voters = best->voters;
-    best_share = best->share;
-    out.model_from_other = best->join;
-    step.num_votes = best_voters.size();
-    step.num_expected = best->expected;
-    step.num_found = best->found;
-    for (const Family& f : families) {
-      if (&f == best) continue;
-      std::vector<size_t> shared;
-      std::set_intersection(f.voters.begin(), f.voters.end(),
-                            best_voters.begin(), best_voters.end(),
-                            std::back_inserter(shared));
-      if (shared.empty()) {
-        step.next_found_share = std::max(step.next_found_share, f.share);
-      }
+  if (!best) return out;
+  out.model_from_other = best->join;
+  step.num_votes = best->voters.size();
+  step.num_expected = best->expected;
+  step.num_found = best->found;
+  for (const Family& f : families) {
+    if (&f == best) continue;
+    std::vector<size_t> shared;
+    std::set_intersection(f.voters.begin(), f.voters.end(),
+                          best->voters.begin(), best->voters.end(),
+                          std::back_inserter(shared));
+    if (shared.empty()) {
+      step.next_found_share = std::max(step.next_found_share, f.share);
     }
   }
-  for (const size_t k : best_voters) {
+  for (const size_t k : best->voters) {
     out.voting_pairs.push_back(proposals[k].pair);
   }
-  out.stands_out = !best_voters.empty() &&
-                   best_share >= options.min_found_share &&
-                   best_share >= options.min_share_ratio * step.next_found_share;
+  out.stands_out =
+      !best->voters.empty() && best->share >= options.min_found_share &&
+      best->share >= options.min_share_ratio * step.next_found_share;
   return out;
 }
 

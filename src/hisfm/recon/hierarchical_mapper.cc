@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 
+#include "hisfm/graph/graph_segments.h"
 #include "hisfm/io/colmap_version.h"
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_validation.h"
@@ -31,6 +32,15 @@ void HierarchicalMapperOptions::Check() const {
   sequence.Check();
   HISFM_CHECK_OPTION(reseed_rounds, reseed_rounds >= 0, ">= 0");
   HISFM_CHECK_OPTION(filter_top_pairs, filter_top_pairs >= 0, ">= 0");
+  HISFM_CHECK_OPTION(
+      scaffold_segment_images,
+      scaffold_segment_images == 0 || scaffold_segment_images >= 3,
+      "0 or >= 3");
+  HISFM_CHECK_OPTION(scaffold_segment_overlap,
+                     scaffold_segment_images == 0 ||
+                         (scaffold_segment_overlap >= 1 &&
+                          scaffold_segment_overlap < scaffold_segment_images),
+                     "in [1, scaffold_segment_images)");
   HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
                      scaffold_ba_global_ratio >= 1.0, ">= 1.0");
   HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements,
@@ -371,18 +381,21 @@ std::string SharedEvidence(const ModelMergeStep& step) {
                 " of ", step.num_correspondences, " shared points agree");
 }
 
-// The model of the numbered sub-model folders under `path` (empty if none):
+// The model of the numbered sub-model folders under `paths` (empty if none):
 // the largest, with the others that share registered images merged into it
 // when `options.merge_sub_models` (model_merge.h; the merged model is
-// written to `path`/merged). Sub-models left out are logged with their sizes
+// written to `merged_path`). Sub-models left out are logged with their sizes
 // and, when merging, appended to `unmerged` if it is given.
-ModelFolder MergedModel(const std::string& path,
+ModelFolder MergedModel(const std::vector<std::string>& paths,
+                        const std::string& merged_path,
                         const HierarchicalMapperOptions& options,
                         std::vector<Reconstruction>* unmerged = nullptr) {
   std::vector<std::string> folders;
   std::vector<Reconstruction> models;
-  for (const std::string& folder : ReadableModels(path, &models)) {
-    folders.push_back(folder);
+  for (const std::string& path : paths) {
+    for (const std::string& folder : ReadableModels(path, &models)) {
+      folders.push_back(folder);
+    }
   }
   if (folders.empty()) return {};
   ModelMergeResult merged;
@@ -421,13 +434,20 @@ ModelFolder MergedModel(const std::string& path,
   if (!options.merge_sub_models || merged.NumMerged() == 0) {
     return {base, models[merged.base].NumRegImages()};
   }
-  const std::string out = path + "/merged";
   std::error_code ec;
-  fs::remove_all(out, ec);
-  AtomicDirectory dir(out);
+  fs::remove_all(merged_path, ec);
+  AtomicDirectory dir(merged_path);
   WriteModelBinary(merged.model, dir.path());
   dir.Commit();
-  return {out, merged.model.NumRegImages(), merged.NumMerged()};
+  return {merged_path, merged.model.NumRegImages(), merged.NumMerged()};
+}
+
+// MergedModel of the sub-models under `path`, merged into `path`/merged.
+ModelFolder MergedModel(const std::string& path,
+                        const HierarchicalMapperOptions& options,
+                        std::vector<Reconstruction>* unmerged = nullptr) {
+  return MergedModel(std::vector<std::string>{path}, path + "/merged", options,
+                     unmerged);
 }
 
 // The options of a component's filtered databases: the multi-view
@@ -518,25 +538,22 @@ struct ScaffoldOutcome {
   ModelFolder model;
   // True when there is no scaffold and the leaves' stage starts from scratch.
   bool fallback = false;
+  // The colmap runs it was reconstructed in (scaffold_segment_images).
+  size_t num_segments = 1;
   // The scaffold's sub-models that could not be merged into `model`.
   std::vector<Reconstruction> unmerged;
 };
 
-// Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton that
-// colmap cannot initialise (no good initial pair, or every sub-model below
-// its minimum size) is not an error: the attach stage then reconstructs the
-// component from scratch on the hierarchy's edges.
-ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
-                                    const HierarchyComponent& comp,
-                                    const HierarchicalMapperOptions& options,
-                                    StageTimes* times) {
-  LogHeading(StrCat("Scaffold: colmap mapper on ", comp.skeleton_images.size(),
-                    " skeletal images, ", comp.skeleton_edges.size(),
-                    " edges"));
+// colmap mapper's arguments for a scaffold run on the skeleton's images
+// listed in `image_list`, writing its sub-models under `output`.
+std::vector<std::string> ScaffoldArgs(const ComponentRun& run,
+                                      const HierarchicalMapperOptions& options,
+                                      const std::string& image_list,
+                                      const std::string& output) {
   std::vector<std::string> args = {
-      "mapper", "--database_path", run.dir + "/skeleton.db", "--image_path",
-      run.image_path, "--output_path", run.dir + "/scaffold",
-      "--image_list_path", run.dir + "/skeleton_images.txt"};
+      "mapper",       "--database_path",   run.dir + "/skeleton.db",
+      "--image_path", run.image_path,      "--output_path",
+      output,         "--image_list_path", image_list};
   args.insert(args.end(), options.mapper_args.begin(),
               options.mapper_args.end());
   for (const char* flag :
@@ -551,14 +568,66 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
                  std::to_string(options.min_model_size), &args);
   AddBundleAdjustmentFlags(options, &args);
+  return args;
+}
+
+// Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton of
+// more than options.scaffold_segment_images images is reconstructed in
+// overlapping segments (graph/graph_segments.h), one colmap run each, whose
+// models are merged through the images they share. A skeleton that colmap
+// cannot initialise (no good initial pair, or every sub-model below its
+// minimum size) is not an error: the attach stage then reconstructs the
+// component from scratch on the hierarchy's edges.
+ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
+                                    const HierarchyComponent& comp,
+                                    const LoadedInput& in,
+                                    const HierarchicalMapperOptions& options,
+                                    StageTimes* times) {
+  const std::vector<std::vector<ImageId>> segments =
+      GraphSegments(comp.skeleton_images, comp.skeleton_edges,
+                    static_cast<size_t>(options.scaffold_segment_images),
+                    static_cast<size_t>(options.scaffold_segment_overlap));
+  LogHeading(StrCat("Scaffold: colmap mapper on ", comp.skeleton_images.size(),
+                    " skeletal images, ", comp.skeleton_edges.size(), " edges",
+                    segments.size() > 1 ? StrCat(", in ", segments.size(),
+                                                 " overlapping segments")
+                                        : std::string()));
   ScaffoldOutcome outcome;
+  outcome.num_segments = segments.size();
   Timer timer;
+  std::vector<std::string> outputs;
+  for (size_t j = 0; j < segments.size(); ++j) {
+    std::string image_list = run.dir + "/skeleton_images.txt";
+    std::string output = run.dir + "/scaffold";
+    std::string what = "Scaffold: registering images";
+    if (segments.size() > 1) {
+      image_list = StrCat(run.dir, "/skeleton_images_", j, ".txt");
+      output = StrCat(run.dir, "/scaffold/segment", j);
+      what = StrCat("Scaffold segment ", j + 1, "/", segments.size(),
+                    ": registering images");
+      WriteImageList(segments[j], in.names, image_list);
+      std::error_code ec;
+      fs::create_directories(output, ec);
+    }
+    try {
+      RunColmapWithProgress(
+          options.colmap, ScaffoldArgs(run, options, image_list, output),
+          run.Log(), what, segments[j].size(), ParseMapperProgress);
+      outputs.push_back(output);
+    } catch (const Interrupted&) {
+      throw;
+    } catch (const Error& e) {
+      // The other segments may still merge around it.
+      HISFM_LOG_WARN("scaffold{}: {}",
+                     segments.size() > 1
+                         ? StrCat(" segment ", j + 1, "/", segments.size())
+                         : std::string(),
+                     e.what());
+    }
+  }
   try {
-    RunColmapWithProgress(options.colmap, args, run.Log(),
-                          "Scaffold: registering images",
-                          comp.skeleton_images.size(), ParseMapperProgress);
-    outcome.model =
-        MergedModel(run.dir + "/scaffold", options, &outcome.unmerged);
+    outcome.model = MergedModel(outputs, run.dir + "/scaffold/merged", options,
+                                &outcome.unmerged);
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
@@ -1014,7 +1083,7 @@ ComponentModel ReconstructComponent(const ComponentRun& run,
                                     StageTimes* times) {
   PrepareComponent(run, comp, in, times);
   ComponentModel out;
-  out.scaffold = ReconstructScaffold(run, comp, options, times);
+  out.scaffold = ReconstructScaffold(run, comp, in, options, times);
   // The scaffold's sub-models left out hold images the later stages may
   // not reach: they are kept with the re-seeded models, joined or written
   // apart (JoinSeparateModels).
@@ -1063,6 +1132,7 @@ nlohmann::json ComponentStats(const ComponentModel& result,
   stats["scaffold_images"] = comp.skeleton_images.size();
   stats["scaffold_registered"] = result.scaffold.model.num_registered;
   stats["scaffold_fallback"] = result.scaffold.fallback;
+  stats["scaffold_segments"] = result.scaffold.num_segments;
   stats["scaffold_merged_sub_models"] = result.scaffold.model.num_merged;
   stats["reseeded_images"] = result.num_reseeded;
   stats["joined_images"] = result.num_joined;

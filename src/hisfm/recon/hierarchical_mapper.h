@@ -54,6 +54,20 @@ struct HierarchicalMapperOptions {
   /// refining the focal length; the scaffold has refined it already). An
   /// explicit --Mapper flag wins.
   bool attach_refine_focal_length = true;
+  /// A scaffold of more skeletal images is reconstructed in overlapping
+  /// segments of at most this many (graph/graph_segments.h: windows of a
+  /// banded order of the skeleton's edges), each by its own colmap run, and
+  /// their models are merged through the images they share, as the sequence
+  /// pass's chain is: incremental SfM's global bundle adjustments make one
+  /// run grow faster than its images (a 5,000-image street's 4,095-image
+  /// scaffold had 3,071 registered after 87 minutes). 1,000 leaves every
+  /// scaffold measured up to 1,000 images in one run, as before; smaller
+  /// segments are not measured. 0 = always one run.
+  int scaffold_segment_images = 1000;
+  /// Images consecutive scaffold segments share (at least): a skeleton's
+  /// window of the banded order is wider than a chain's, so more than the
+  /// chain's 30; not tuned.
+  int scaffold_segment_overlap = 50;
   /// Scaffold run: colmap's periodic global bundle adjustment runs when the
   /// model has grown by this factor in images or points since the last one
   /// (colmap's --Mapper.ba_global_images_ratio / points_ratio, default 1.1).

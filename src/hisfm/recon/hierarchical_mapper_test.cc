@@ -351,6 +351,47 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
             std::string::npos);
 }
 
+// A scaffold larger than scaffold_segment_images is reconstructed in
+// overlapping segments, one colmap run each, merged into one scaffold
+// through their shared images; the result is correct against the truth.
+TEST(HierarchicalMapper, ALargeScaffoldIsReconstructedInSegmentsThatMerge) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const MapperPaths paths = SynthScene(tmp, "street_control", 60, 2);
+  HierarchicalMapperOptions options;
+  options.sequence.sequence.mode = "off";
+  options.scaffold_segment_images = 20;
+  options.scaffold_segment_overlap = 8;
+  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  const nlohmann::json& model = summary["models"][0];
+  const size_t scaffold_images = model["scaffold_images"].get<size_t>();
+  ASSERT_GT(scaffold_images, 20u) << "the scaffold fits one segment";
+  const size_t segments = model["scaffold_segments"].get<size_t>();
+  EXPECT_GE(segments, 2u);
+  EXPECT_FALSE(model["scaffold_fallback"].get<bool>());
+  // Every segment's model but the base was merged into it.
+  EXPECT_GE(model["scaffold_merged_sub_models"].get<size_t>(), segments - 1);
+  EXPECT_GE(model["scaffold_registered"].get<size_t>(),
+            scaffold_images * 9 / 10);
+  std::ifstream log(tmp / "out_work/component0/colmap.log");
+  size_t scaffold_runs = 0;
+  for (std::string line; std::getline(log, line);) {
+    if (line.rfind("$ colmap mapper", 0) == 0 &&
+        line.find("skeleton_images_") != std::string::npos) {
+      ++scaffold_runs;
+    }
+  }
+  EXPECT_EQ(scaffold_runs, segments);
+  const PoseEvaluation e = EvaluateModel(
+      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(e.num_registered, 60u);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+
+  options.scaffold_segment_overlap = 20;
+  EXPECT_NE(ErrorOf(paths, options).find("scaffold_segment_overlap"),
+            std::string::npos);
+}
+
 // --HiSfM.global_bundle_adjustment: one colmap bundle_adjuster on the
 // attached model, whose output (refined/) is the component's model.
 TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
