@@ -234,7 +234,8 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "global bundle adjustment");
   visit("--HiSfM.scaffold_segment_images", o->scaffold_segment_images,
         "Reconstruct a larger scaffold in overlapping segments of at most "
-        "this many images, merged through their shared images (0 = one run)");
+        "this many images, merged through their shared images (0, or "
+        "--HiSfM.merge_sub_models 0: one run)");
   visit("--HiSfM.scaffold_segment_overlap", o->scaffold_segment_overlap,
         "Images consecutive scaffold segments share");
   visit("--HiSfM.scaffold_ba_global_ratio",

@@ -33,8 +33,7 @@ std::vector<ImageId> BandedOrder(const std::vector<ImageId>& images,
                                  const std::vector<ImagePair>& edges) {
   using Graph = boost::adjacency_list<
       boost::vecS, boost::vecS, boost::undirectedS,
-      boost::property<boost::vertex_color_t, boost::default_color_type,
-                      boost::property<boost::vertex_degree_t, int>>>;
+      boost::property<boost::vertex_color_t, boost::default_color_type>>;
   std::unordered_map<ImageId, size_t> index;
   for (ImageId id : images) index.emplace(id, index.size());
   std::vector<bool> has_edge(images.size(), false);

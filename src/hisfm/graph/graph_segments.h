@@ -34,7 +34,7 @@ std::vector<std::pair<size_t, size_t>> OverlappingSpans(size_t n, size_t span,
 /// breadth first from a pseudo-peripheral image of each connected
 /// component, neighbours by increasing degree; components follow one
 /// another, images without an edge come last, in their given order. Edges
-/// with an image outside `images` are ignored.
+/// with an image outside `images` are ignored. `images` must be distinct.
 std::vector<ImageId> BandedOrder(const std::vector<ImageId>& images,
                                  const std::vector<ImagePair>& edges);
 
@@ -42,7 +42,11 @@ std::vector<ImageId> BandedOrder(const std::vector<ImageId>& images,
 /// images: OverlappingSpans of their BandedOrder (consecutive segments share
 /// at least `overlap` images). Each segment lists its images in that order.
 /// At most segment_images images, or segment_images = 0, give one segment
-/// of every image. Throws hisfm::Error as OverlappingSpans does.
+/// of every image; no images give no segment. Throws hisfm::Error as
+/// OverlappingSpans does. On a graph that branches (streets that cross) a
+/// window holds pieces of several branches, which may meet only outside it:
+/// its run then gives several models, merged with the other windows' through
+/// the images they share.
 std::vector<std::vector<ImageId>> GraphSegments(
     const std::vector<ImageId>& images, const std::vector<ImagePair>& edges,
     size_t segment_images, size_t overlap);

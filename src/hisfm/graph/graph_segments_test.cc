@@ -61,7 +61,7 @@ TEST(GraphSegments, SpansAreFewestEvenAndOverlapping) {
   EXPECT_EQ(spans.front().first, 0u);
   EXPECT_EQ(spans.back().second, 100u);
   for (size_t j = 0; j < spans.size(); ++j) {
-    EXPECT_LE(spans[j].second - spans[j].first, 30u);
+    EXPECT_EQ(spans[j].second - spans[j].first, 29u);
     if (j > 0) EXPECT_GE(spans[j - 1].second - spans[j].first, 5u);
   }
   EXPECT_THROW(OverlappingSpans(100, 30, 0), Error);
@@ -93,6 +93,25 @@ TEST(GraphSegments, BandedOrderRecoversAShuffledStreet) {
   // It starts at an end of the street.
   EXPECT_TRUE(order.front() == street.front() ||
               order.front() == street.back());
+}
+
+TEST(GraphSegments, BandedOrderKeepsComponentsApart) {
+  // Two streets without an edge between them, ids interleaved, and an edge
+  // to an image that is not in the list.
+  std::vector<ImagePair> edges;
+  std::vector<ImageId> images;
+  for (ImageId k = 1; k <= 40; ++k) images.push_back(k);
+  for (ImageId k = 1; k + 2 <= 40; ++k) edges.push_back(ImagePair(k, k + 2));
+  edges.push_back(ImagePair(1, 99));
+  const std::vector<ImageId> order = BandedOrder(images, edges);
+  ASSERT_EQ(order.size(), 40u);
+  // One street (odd or even ids) after the other, each from an end.
+  for (size_t k = 0; k < 20; ++k) {
+    EXPECT_EQ(order[k] % 2, order[0] % 2) << k;
+    EXPECT_NE(order[k + 20] % 2, order[0] % 2) << k;
+  }
+  EXPECT_TRUE(order[0] <= 2 || order[0] >= 39) << order[0];
+  EXPECT_TRUE(order[20] <= 2 || order[20] >= 39) << order[20];
 }
 
 TEST(GraphSegments, SegmentsAreConnectedOverlapAndCoverTheGraph) {

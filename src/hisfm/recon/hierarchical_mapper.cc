@@ -572,7 +572,8 @@ std::vector<std::string> ScaffoldArgs(const ComponentRun& run,
 }
 
 // Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton of
-// more than options.scaffold_segment_images images is reconstructed in
+// more than options.scaffold_segment_images images (with merge_sub_models)
+// is reconstructed in
 // overlapping segments (graph/graph_segments.h), one colmap run each, whose
 // models are merged through the images they share. A skeleton that colmap
 // cannot initialise (no good initial pair, or every sub-model below its
@@ -585,7 +586,9 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
                                     StageTimes* times) {
   const std::vector<std::vector<ImageId>> segments =
       GraphSegments(comp.skeleton_images, comp.skeleton_edges,
-                    static_cast<size_t>(options.scaffold_segment_images),
+                    options.merge_sub_models
+                        ? static_cast<size_t>(options.scaffold_segment_images)
+                        : 0,
                     static_cast<size_t>(options.scaffold_segment_overlap));
   LogHeading(StrCat("Scaffold: colmap mapper on ", comp.skeleton_images.size(),
                     " skeletal images, ", comp.skeleton_edges.size(), " edges",

@@ -62,7 +62,8 @@ struct HierarchicalMapperOptions {
   /// run grow faster than its images (a 5,000-image street's 4,095-image
   /// scaffold had 3,071 registered after 87 minutes). 1,000 leaves every
   /// scaffold measured up to 1,000 images in one run, as before; smaller
-  /// segments are not measured. 0 = always one run.
+  /// segments are not measured. 0 = always one run; so is merge_sub_models
+  /// = false, as segments need their merge.
   int scaffold_segment_images = 1000;
   /// Images consecutive scaffold segments share (at least): a skeleton's
   /// window of the banded order is wider than a chain's, so more than the

@@ -387,6 +387,16 @@ TEST(HierarchicalMapper, ALargeScaffoldIsReconstructedInSegmentsThatMerge) {
   EXPECT_EQ(e.num_registered, 60u);
   EXPECT_TRUE(e.correct) << e.verdict_reason;
 
+  // Segments need their merge: without it the scaffold is one run.
+  MapperPaths unmerged = paths;
+  unmerged.output_path = tmp / "unmerged";
+  HierarchicalMapperOptions no_merge = options;
+  no_merge.merge_sub_models = false;
+  EXPECT_EQ(RunHierarchicalMapper(unmerged,
+                                  no_merge)["models"][0]["scaffold_segments"]
+                .get<size_t>(),
+            1u);
+
   options.scaffold_segment_overlap = 20;
   EXPECT_NE(ErrorOf(paths, options).find("scaffold_segment_overlap"),
             std::string::npos);

@@ -338,7 +338,7 @@ std::vector<Reconstruction> ReconstructChain(
       last_error = e.what();
     }
   }
-  ThrowUnless(any_reconstructed, last_error);
+  ThrowUnless(any_reconstructed || segments.empty(), last_error);
   if (segments.size() <= 1 || models.empty()) return models;
   std::vector<Reconstruction> merged;
   while (!models.empty()) {
