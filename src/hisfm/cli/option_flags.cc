@@ -257,6 +257,13 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.global_bundle_adjustment",
         o->global_bundle_adjustment,
         "Run an extra colmap bundle_adjuster at the end");
+  visit("--HiSfM.refine_with_sequence_pairs", o->refine_with_sequence_pairs,
+        "After the sequence pass: re-triangulate each scaffold segment from "
+        "the pairs the pass checked and bundle-adjust it before the merge");
+  visit("--HiSfM.refined_attach_ba_global_max_num_iterations",
+        o->refined_attach_ba_global_max_num_iterations,
+        "Attach run from refined scaffold segments: iterations of its "
+        "global bundle adjustment (0: colmap's default 50)");
   visit("--HiSfM.min_model_size", o->min_model_size,
         "Components with fewer images are not reconstructed");
   visit("--HiSfM.merge_sub_models", o->merge_sub_models,

@@ -43,6 +43,8 @@ void HierarchicalMapperOptions::Check() const {
                      "in [1, scaffold_segment_images)");
   HISFM_CHECK_OPTION(scaffold_ba_global_ratio,
                      scaffold_ba_global_ratio >= 1.0, ">= 1.0");
+  HISFM_CHECK_OPTION(refined_attach_ba_global_max_num_iterations,
+                     refined_attach_ba_global_max_num_iterations >= 0, ">= 0");
   HISFM_CHECK_OPTION(scaffold_ba_global_max_refinements,
                      scaffold_ba_global_max_refinements >= 1, ">= 1");
   HISFM_CHECK_OPTION(ba_global_function_tolerance,
@@ -123,6 +125,9 @@ struct LoadedInput {
   // Verified pairs kept back for images the hierarchy cannot register
   // (VerifiedHierarchy::reserve_edges).
   std::vector<ViewGraphEdge> reserve_edges;
+  // Pairs the sequence pass checked against its chain (SequenceCheckedPairs;
+  // empty when it did not run).
+  std::vector<ImagePair> sequence_checked_pairs;
 };
 
 // With a plug-in verifier (VerifierOptions::IsPlugIn), what the builtin
@@ -348,6 +353,9 @@ struct ModelFolder {
   size_t num_registered = 0;
   // Sub-models merged into it (MergedModel).
   size_t num_merged = 0;
+  // True when every part of it was bundle-adjusted to convergence (scaffold
+  // segments refined by RefineSegment).
+  bool converged = false;
 
   bool empty() const { return path.empty(); }
 };
@@ -502,6 +510,7 @@ struct StageTimes {
   double scaffold = 0;
   double attach = 0;
   double bundle_adjustment = 0;
+  double retriangulation = 0;
 };
 
 // Where one component's stages read and write.
@@ -571,6 +580,88 @@ std::vector<std::string> ScaffoldArgs(const ComponentRun& run,
   return args;
 }
 
+// The skeleton's edges and the sequence's checked pairs between images that
+// one of `models` registers.
+std::vector<ImagePair> SegmentRefinementPairs(
+    const HierarchyComponent& comp, const LoadedInput& in,
+    const std::vector<Reconstruction>& models) {
+  const auto registered = [&](ImageId id) {
+    return std::any_of(
+        models.begin(), models.end(),
+        [&](const Reconstruction& m) { return m.images.count(id) > 0; });
+  };
+  std::set<ImagePair> pairs;
+  for (const std::vector<ImagePair>* source :
+       {&comp.skeleton_edges, &in.sequence_checked_pairs}) {
+    for (const ImagePair& p : *source) {
+      if (registered(p.image_id1) && registered(p.image_id2)) pairs.insert(p);
+    }
+  }
+  return {pairs.begin(), pairs.end()};
+}
+
+// refine_with_sequence_pairs: re-triangulates each numbered sub-model under
+// `output` (one scaffold segment's run) from the skeleton's edges and the
+// sequence's checked pairs between its images, poses fixed (colmap
+// point_triangulator), and bundle-adjusts it with colmap's defaults, into
+// the same numbers under `refined`. Returns `refined`, or `output` when
+// there is nothing to refine (the option is off, or the sequence pass
+// checked no pair) or colmap fails (logged).
+std::string RefineSegment(const ComponentRun& run,
+                          const HierarchyComponent& comp, const LoadedInput& in,
+                          const HierarchicalMapperOptions& options,
+                          const std::string& output, const std::string& refined,
+                          StageTimes* times) {
+  if (!options.refine_with_sequence_pairs ||
+      in.sequence_checked_pairs.empty()) {
+    return output;
+  }
+  std::vector<Reconstruction> models;
+  const std::vector<std::string> folders = ReadableModels(output, &models);
+  if (folders.empty()) return output;
+  Timer timer;
+  const std::string database = refined + ".db";
+  const std::vector<ImagePair> pairs = SegmentRefinementPairs(comp, in, models);
+  try {
+    WriteFilteredDatabase(run.database_path, database, pairs,
+                          ComponentDatabaseOptions(in));
+    times->filter_databases += timer.ElapsedSeconds();
+    double triangulation = 0, adjustment = 0;
+    for (const std::string& folder : folders) {
+      const std::string name = fs::path(folder).filename().string();
+      const std::string points = StrCat(refined, "/triangulated", name);
+      const std::string adjusted = StrCat(refined, "/", name);
+      std::error_code ec;
+      fs::create_directories(points, ec);
+      fs::create_directories(adjusted, ec);
+      ThrowUnless(!ec, StrCat("cannot create ", adjusted));
+      triangulation += RunColmap(
+          options.colmap,
+          {"point_triangulator", "--database_path", database, "--image_path",
+           run.image_path, "--input_path", folder, "--output_path", points},
+          run.Log());
+      adjustment += RunColmap(options.colmap,
+                              {"bundle_adjuster", "--input_path", points,
+                               "--output_path", adjusted},
+                              run.Log());
+      fs::remove_all(points, ec);
+    }
+    times->retriangulation += triangulation;
+    times->bundle_adjustment += adjustment;
+    HISFM_LOG_INFO(
+        "refined from {} pairs (the skeleton's and the sequence's checked): "
+        "re-triangulated in {:.1f} s, bundle-adjusted in {:.1f} s",
+        pairs.size(), triangulation, adjustment);
+    return refined;
+  } catch (const Interrupted&) {
+    throw;
+  } catch (const Error& e) {
+    HISFM_LOG_WARN("scaffold segment refinement: {}; keeping it unrefined",
+                   e.what());
+    return output;
+  }
+}
+
 // Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton of
 // more than options.scaffold_segment_images images (with merge_sub_models)
 // is reconstructed in
@@ -598,7 +689,12 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   ScaffoldOutcome outcome;
   outcome.num_segments = segments.size();
   Timer timer;
+  // The segments' refinements are timed as stages of their own.
+  const double refined_before = times->filter_databases +
+                                times->retriangulation +
+                                times->bundle_adjustment;
   std::vector<std::string> outputs;
+  size_t num_refined = 0;
   for (size_t j = 0; j < segments.size(); ++j) {
     std::string image_list = run.dir + "/skeleton_images.txt";
     std::string output = run.dir + "/scaffold";
@@ -616,7 +712,11 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
       RunColmapWithProgress(
           options.colmap, ScaffoldArgs(run, options, image_list, output),
           run.Log(), what, segments[j].size(), ParseMapperProgress);
-      outputs.push_back(output);
+      outputs.push_back(segments.size() > 1
+                            ? RefineSegment(run, comp, in, options, output,
+                                            output + "_refined", times)
+                            : output);
+      if (outputs.back() != output) ++num_refined;
     } catch (const Interrupted&) {
       throw;
     } catch (const Error& e) {
@@ -631,12 +731,15 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   try {
     outcome.model = MergedModel(outputs, run.dir + "/scaffold/merged", options,
                                 &outcome.unmerged);
+    outcome.model.converged = num_refined == segments.size();
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
     HISFM_LOG_WARN("scaffold: {}", e.what());
   }
-  times->scaffold += timer.ElapsedSeconds();
+  times->scaffold += timer.ElapsedSeconds() -
+                     (times->filter_databases + times->retriangulation +
+                      times->bundle_adjustment - refined_before);
   if (outcome.model.empty()) {
     outcome.fallback = true;
     HISFM_LOG_WARN(
@@ -685,6 +788,13 @@ ModelFolder AttachLeaves(const ComponentRun& run,
   // 10 images, and then fails when it cannot start another).
   AddDefaultFlag(options.mapper_args, "--Mapper.min_model_size",
                  std::to_string(options.min_model_size), &args);
+  if (scaffold.converged &&
+      options.refined_attach_ba_global_max_num_iterations > 0) {
+    AddDefaultFlag(
+        options.mapper_args, "--Mapper.ba_global_max_num_iterations",
+        std::to_string(options.refined_attach_ba_global_max_num_iterations),
+        &args);
+  }
   if (!options.attach_refine_focal_length && !scaffold.empty()) {
     AddDefaultFlag(options.mapper_args, "--Mapper.ba_refine_focal_length",
                    "0", &args);
@@ -793,6 +903,26 @@ ModelFolder RescueUnregistered(const ComponentRun& run,
   }
   return rescued.num_registered > attached.num_registered ? rescued
                                                           : attached;
+}
+
+// The pairs of `graph` (the cleaned database's) whose two images one of the
+// sequence pass's chain models registers: the pass's transfer test judged
+// each of them, and those left in the cleaned database agree with the chain.
+std::vector<ImagePair> SequenceCheckedPairs(
+    const ViewGraph& graph, const std::vector<Reconstruction>& chain_models) {
+  std::unordered_map<ImageId, size_t> model_of;
+  for (size_t m = 0; m < chain_models.size(); ++m) {
+    for (const auto& [id, image] : chain_models[m].images) model_of[id] = m;
+  }
+  std::vector<ImagePair> out;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    const auto a = model_of.find(e.pair.image_id1);
+    const auto b = model_of.find(e.pair.image_id2);
+    if (a != model_of.end() && b != model_of.end() && a->second == b->second) {
+      out.push_back(e.pair);
+    }
+  }
+  return out;
 }
 
 // The optional extra global bundle adjustment; returns the final model.
@@ -1188,6 +1318,7 @@ nlohmann::json MapperSummary(const LoadedInput& in, const MapperPaths& paths,
                         {"filter_databases", times.filter_databases},
                         {"scaffold", times.scaffold},
                         {"attach", times.attach},
+                        {"retriangulation", times.retriangulation},
                         {"global_bundle_adjustment", times.bundle_adjustment},
                         {"total", total_seconds}};
   return summary;
@@ -1261,7 +1392,11 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
       LoadAndBuildHierarchy(database_path, paths.image_path, options);
   in.sequence_seconds = pass.seconds;
   // The summary counts the input's pairs, not the cleaned copy's.
-  if (pass.ran) in.num_verified_pairs = pass.num_input_pairs;
+  if (pass.ran) {
+    in.num_verified_pairs = pass.num_input_pairs;
+    in.sequence_checked_pairs =
+        SequenceCheckedPairs(in.graph, pass.chain_models);
+  }
   const Hierarchy& h = in.hierarchy;
 
   WriteViewGraphJson(in, work + "/view_graph.json");

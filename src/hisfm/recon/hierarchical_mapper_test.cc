@@ -280,6 +280,17 @@ TEST(HierarchicalMapper, FacadeStreet60IsCorrectWhereColmapFolds) {
 // Writes the synthetic scene `scene` (num_images, seed; a family's
 // parameters drawn from the seed if `randomize_family`) to tmp/scene; the
 // mapper's paths for it, output to tmp/out.
+// The colmap commands of the component's log that start with `prefix`.
+std::vector<std::string> ColmapCommands(const std::string& component,
+                                        const std::string& prefix) {
+  std::ifstream log(component + "/colmap.log");
+  std::vector<std::string> out;
+  for (std::string line; std::getline(log, line);) {
+    if (line.rfind(prefix, 0) == 0) out.push_back(line + " ");
+  }
+  return out;
+}
+
 MapperPaths SynthScene(const TempDir& tmp, const std::string& scene,
                        int num_images, uint32_t seed,
                        bool randomize_family = false) {
@@ -382,6 +393,11 @@ TEST(HierarchicalMapper, ALargeScaffoldIsReconstructedInSegmentsThatMerge) {
     }
   }
   EXPECT_EQ(scaffold_runs, segments);
+  // Without the sequence pass no pair outside the skeleton was checked:
+  // the segments are merged unrefined.
+  EXPECT_TRUE(
+      ColmapCommands(tmp / "out_work/component0", "$ colmap point_triangulator")
+          .empty());
   const PoseEvaluation e = EvaluateModel(
       ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
   EXPECT_EQ(e.num_registered, 60u);
@@ -399,6 +415,76 @@ TEST(HierarchicalMapper, ALargeScaffoldIsReconstructedInSegmentsThatMerge) {
 
   options.scaffold_segment_overlap = 20;
   EXPECT_NE(ErrorOf(paths, options).find("scaffold_segment_overlap"),
+            std::string::npos);
+}
+
+// --HiSfM.refine_with_sequence_pairs: after the sequence pass, each scaffold
+// segment is re-triangulated from the pass's checked pairs and adjusted
+// before the merge, which reads the refined folders; the street stays
+// correct. Off, or without the pass, no segment is refined.
+TEST(HierarchicalMapper, ScaffoldSegmentsAreRefinedFromTheSequencesPairs) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const MapperPaths paths = SynthScene(tmp, "street_control", 60, 2);
+  HierarchicalMapperOptions options;
+  options.scaffold_segment_images = 20;
+  options.scaffold_segment_overlap = 8;
+  const nlohmann::json summary = RunHierarchicalMapper(paths, options);
+  ASSERT_TRUE(summary["sequence"]["ran"].get<bool>());
+  const size_t segments =
+      summary["models"][0]["scaffold_segments"].get<size_t>();
+  ASSERT_GE(segments, 2u);
+  const std::string component = tmp / "out_work/component0";
+  const std::vector<std::string> triangulators =
+      ColmapCommands(component, "$ colmap point_triangulator");
+  const std::vector<std::string> adjusters =
+      ColmapCommands(component, "$ colmap bundle_adjuster");
+  EXPECT_GE(triangulators.size(), segments);
+  EXPECT_EQ(adjusters.size(), triangulators.size());
+  for (const std::string& line : triangulators) {
+    EXPECT_NE(line.find("_refined.db "), std::string::npos) << line;
+  }
+  EXPECT_TRUE(fs::exists(component + "/scaffold/segment0_refined/0"));
+  // The refined segments carry more tracks than the skeleton's edges give.
+  const Reconstruction raw =
+      ReadModelBinary(component + "/scaffold/segment1/0");
+  const Reconstruction refined =
+      ReadModelBinary(component + "/scaffold/segment1_refined/0");
+  EXPECT_EQ(refined.NumRegImages(), raw.NumRegImages());
+  EXPECT_GT(refined.NumObservations(), raw.NumObservations());
+  EXPECT_GT(summary["timings"]["retriangulation"].get<double>(), 0);
+  // The attach run from the refined scaffold caps its global adjustment.
+  const std::string attach_input =
+      "--input_path " + component + "/scaffold/merged ";
+  const std::string capped = "--Mapper.ba_global_max_num_iterations 10 ";
+  size_t attach_runs = 0;
+  for (const std::string& line : ColmapCommands(component, "$ colmap mapper")) {
+    if (line.find(attach_input) == std::string::npos) continue;
+    ++attach_runs;
+    EXPECT_NE(line.find(capped), std::string::npos) << line;
+  }
+  EXPECT_EQ(attach_runs, 1u);
+  const PoseEvaluation e = EvaluateModel(
+      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(e.num_registered, 60u);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+
+  MapperPaths off = paths;
+  off.output_path = tmp / "off";
+  off.work_path = tmp / "off_work";
+  HierarchicalMapperOptions no_refinement = options;
+  no_refinement.refine_with_sequence_pairs = false;
+  RunHierarchicalMapper(off, no_refinement);
+  EXPECT_TRUE(
+      ColmapCommands(tmp / "off_work/component0", "$ colmap point_triangulator")
+          .empty());
+  for (const std::string& line :
+       ColmapCommands(tmp / "off_work/component0", "$ colmap mapper")) {
+    EXPECT_EQ(line.find(capped), std::string::npos) << line;
+  }
+  no_refinement.refined_attach_ba_global_max_num_iterations = -1;
+  EXPECT_NE(ErrorOf(off, no_refinement)
+                .find("refined_attach_ba_global_max_num_iterations"),
             std::string::npos);
 }
 

@@ -21,6 +21,7 @@ void ModelMergeOptions::Check() const {
   HISFM_CHECK_OPTION(max_relative_error,
                      std::isfinite(max_relative_error) && max_relative_error > 0,
                      "finite and > 0");
+  HISFM_CHECK_OPTION(num_refits, num_refits >= 0, ">= 0");
 }
 
 size_t ModelMergeResult::NumMerged() const {
@@ -293,6 +294,55 @@ ModelMergeStep FirstCounts(const Reconstruction& other,
   return step;
 }
 
+// The correspondences of `corr` that agree with `model_from_other`: the
+// mapped point within max_relative_error of its depth of the model's point.
+std::vector<bool> Agreeing(const std::vector<Correspondence>& corr,
+                           const Sim3d& model_from_other,
+                           const ModelMergeOptions& options, size_t* count) {
+  std::vector<bool> inliers(corr.size(), false);
+  *count = 0;
+  for (size_t k = 0; k < corr.size(); ++k) {
+    const Correspondence& c = corr[k];
+    if (c.model_depth > 0 &&
+        (model_from_other * c.other_xyz - c.model_xyz).norm() <=
+            options.max_relative_error * c.model_depth) {
+      inliers[k] = true;
+      ++*count;
+    }
+  }
+  return inliers;
+}
+
+// Local optimisation (LO-RANSAC, Chum, Matas and Kittler, 2003) of the
+// similarity one shared image gave: least-squares refits (Umeyama, through
+// EstimateSimilarity) to the agreeing points of every shared image, each
+// kept while at least as many points agree with it. One image's pose fixes
+// the rotation of the whole merged sub-model as well as that image is
+// posed; the points of all shared images fix it as well as the overlap
+// does.
+void RefineOnInliers(const std::vector<Correspondence>& corr,
+                     const ModelMergeOptions& options, Sim3d* model_from_other,
+                     std::vector<bool>* inliers, size_t* num_inliers) {
+  for (int round = 0; round < options.num_refits; ++round) {
+    std::vector<Eigen::Vector3d> source, target;
+    for (size_t k = 0; k < corr.size(); ++k) {
+      if (!(*inliers)[k]) continue;
+      source.push_back(corr[k].other_xyz);
+      target.push_back(corr[k].model_xyz);
+    }
+    Sim3d refit;
+    if (!EstimateSimilarity(source, target, &refit)) return;
+    size_t count = 0;
+    std::vector<bool> agree = Agreeing(corr, refit, options, &count);
+    if (count < *num_inliers) return;
+    const bool same = agree == *inliers;
+    *model_from_other = refit;
+    *inliers = std::move(agree);
+    *num_inliers = count;
+    if (same) return;
+  }
+}
+
 }  // namespace
 
 ModelMergeStep MergeInto(const Reconstruction& other,
@@ -327,22 +377,17 @@ ModelMergeStep MergeInto(const Reconstruction& other,
         cam_from_model.rotation.inverse() *
         (model_from_other.scale * cam_from_other.translation -
          cam_from_model.translation);
-    std::vector<bool> inliers(corr.size(), false);
     size_t count = 0;
-    for (size_t k = 0; k < corr.size(); ++k) {
-      const Correspondence& c = corr[k];
-      if (c.model_depth > 0 &&
-          (model_from_other * c.other_xyz - c.model_xyz).norm() <=
-              options.max_relative_error * c.model_depth) {
-        inliers[k] = true;
-        ++count;
-      }
-    }
+    std::vector<bool> inliers =
+        Agreeing(corr, model_from_other, options, &count);
     if (count > step.num_inliers) {
       step.num_inliers = count;
       best_inliers = std::move(inliers);
       best = model_from_other;
     }
+  }
+  if (options.refine_similarity && step.num_inliers > 0) {
+    RefineOnInliers(corr, options, &best, &best_inliers, &step.num_inliers);
   }
   JoinIfAgreed(other, corr, best_inliers, best, options, &step, model);
   return step;

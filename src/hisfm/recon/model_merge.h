@@ -55,6 +55,13 @@ struct ModelMergeOptions {
   /// MergeThroughMatches, in the pair's image of that model) of the model's
   /// point.
   double max_relative_error = 0.1;
+  /// MergeInto: refit the similarity by least squares to the agreeing points
+  /// of all shared images (rather than keep the one shared image's pose
+  /// that scored best), repeated while no fewer points agree, up to
+  /// num_refits times.
+  bool refine_similarity = true;
+  /// Most least-squares refits of refine_similarity.
+  int num_refits = 5;
 
   /// Throws hisfm::Error if an option is out of range.
   void Check() const;

@@ -106,6 +106,53 @@ void ExpectConsistentTracks(const Reconstruction& model) {
   }
 }
 
+// The shared images' poses in `other` are off (each turned by 0.6 degrees
+// about its centre, as a segment's end images are posed worst) while its
+// points are right: the similarity of any one shared image turns the merged
+// images with it; refitted to the points of all shared images it is exact.
+TEST(ModelMerge, RefitsTheSimilarityToThePointsOfAllSharedImages) {
+  const Reconstruction base = RowModel(1, 5, Sim3d());
+  Reconstruction other = RowModel(3, 9, SomeFrame());
+  const std::vector<Eigen::Vector3d> axes = {
+      Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 1).normalized(),
+      Eigen::Vector3d(1, -1, 0).normalized()};
+  for (ImageId id = 3; id <= 5; ++id) {
+    Rigid3d& pose = other.images.at(id).cam_from_world;
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(0.01, axes[id - 3]));
+    pose = Rigid3d(turn * pose.rotation, turn * pose.translation);
+  }
+  const auto worst_rotation_error = [](const Reconstruction& model) {
+    double worst = 0;
+    for (ImageId id = 6; id <= 9; ++id) {
+      worst = std::max(
+          worst, model.images.at(id).cam_from_world.rotation.angularDistance(
+                     CameraPose(id).rotation));
+    }
+    return worst;
+  };
+  Reconstruction refined = base;
+  const ModelMergeStep step = MergeInto(other, {}, &refined);
+  ASSERT_TRUE(step.merged);
+  EXPECT_EQ(step.num_inliers, 3u * kNumPoints);
+  ASSERT_EQ(refined.NumRegImages(), 9u);
+  EXPECT_LT(worst_rotation_error(refined), 1e-6);
+  for (ImageId id = 6; id <= 9; ++id) {
+    EXPECT_LT((refined.images.at(id).ProjectionCenter() -
+               CameraPose(id).Inverse().translation)
+                  .norm(),
+              1e-6);
+  }
+
+  ModelMergeOptions one_image;
+  one_image.refine_similarity = false;
+  Reconstruction unrefined = base;
+  ASSERT_TRUE(MergeInto(other, one_image, &unrefined).merged);
+  EXPECT_GT(worst_rotation_error(unrefined), 0.005);
+
+  one_image.num_refits = -1;
+  EXPECT_THROW(one_image.Check(), Error);
+}
+
 TEST(ModelMerge, JoinsTwoModelsThroughOneSharedImage) {
   Reconstruction model = RowModel(1, 5, Sim3d());
   const Reconstruction other = RowModel(5, 9, SomeFrame());

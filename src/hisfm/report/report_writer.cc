@@ -921,6 +921,7 @@ const std::vector<std::pair<std::string, std::string>>& MapperStageNames() {
       {"filter_databases", "write filtered databases"},
       {"scaffold", "scaffold (colmap mapper on the skeleton)"},
       {"attach", "attach leaves (colmap mapper)"},
+      {"retriangulation", "scaffold segments re-triangulated (sequence pairs)"},
       {"global_bundle_adjustment", "global bundle adjustment"}};
   return names;
 }
