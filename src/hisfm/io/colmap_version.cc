@@ -78,6 +78,7 @@ std::vector<ColmapOptionNames> BuildTable() {
       Same("", "Mapper.ba_global_max_refinements"),
       Same("", "Mapper.ba_global_function_tolerance"),
       Same("", "Mapper.ba_local_max_refinements"),
+      Same("", "Mapper.ba_global_max_num_iterations"),
       Row("", {{R::k3_8, "Mapper.snapshot_images_freq"},
                {R::k3_12, "Mapper.snapshot_frames_freq"}}),
       Row("", {{R::k3_8, "Mapper.fix_existing_images"},

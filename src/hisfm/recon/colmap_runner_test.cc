@@ -67,7 +67,8 @@ std::string MapperFlags(const FakeRelease& r) {
       "database_path image_path input_path output_path Mapper.min_model_size "
       "Mapper.ba_global_points_ratio Mapper.ba_global_points_freq "
       "Mapper.ba_global_max_refinements Mapper.ba_global_function_tolerance "
-      "Mapper.ba_local_max_refinements Mapper.tri_ignore_two_view_tracks ";
+      "Mapper.ba_local_max_refinements Mapper.tri_ignore_two_view_tracks "
+      "Mapper.ba_global_max_num_iterations ";
   flags += r.frames ? "Mapper.ba_global_frames_ratio Mapper.ba_global_frames_freq "
                     : "Mapper.ba_global_images_ratio Mapper.ba_global_images_freq ";
   flags += r.mapper_image_list ? "Mapper.image_list_path" : "image_list_path";

@@ -620,6 +620,8 @@ std::string RefineSegment(const ComponentRun& run,
   const std::vector<std::string> folders = ReadableModels(output, &models);
   if (folders.empty()) return output;
   Timer timer;
+  std::error_code ec;
+  fs::remove_all(refined, ec);
   const std::string database = refined + ".db";
   const std::vector<ImagePair> pairs = SegmentRefinementPairs(comp, in, models);
   try {
@@ -631,23 +633,34 @@ std::string RefineSegment(const ComponentRun& run,
       const std::string name = fs::path(folder).filename().string();
       const std::string points = StrCat(refined, "/triangulated", name);
       const std::string adjusted = StrCat(refined, "/", name);
-      std::error_code ec;
-      fs::create_directories(points, ec);
-      fs::create_directories(adjusted, ec);
-      ThrowUnless(!ec, StrCat("cannot create ", adjusted));
-      triangulation += RunColmap(
-          options.colmap,
-          {"point_triangulator", "--database_path", database, "--image_path",
-           run.image_path, "--input_path", folder, "--output_path", points},
-          run.Log());
+      for (const std::string& dir : {points, adjusted}) {
+        fs::create_directories(dir, ec);
+        ThrowUnless(!ec, StrCat("cannot create ", dir, ": ", ec.message()));
+      }
+      // The skeleton's points are kept and extended (colmap 3.8's default,
+      // as measured; later releases clear them by default).
+      std::vector<std::string> args = {"point_triangulator",
+                                       "--database_path",
+                                       database,
+                                       "--image_path",
+                                       run.image_path,
+                                       "--input_path",
+                                       folder,
+                                       "--output_path",
+                                       points,
+                                       "--clear_points",
+                                       "0"};
+      args.insert(args.end(), options.mapper_args.begin(),
+                  options.mapper_args.end());
+      triangulation += RunColmap(options.colmap, args, run.Log());
       adjustment += RunColmap(options.colmap,
                               {"bundle_adjuster", "--input_path", points,
                                "--output_path", adjusted},
                               run.Log());
       fs::remove_all(points, ec);
     }
-    times->retriangulation += triangulation;
-    times->bundle_adjustment += adjustment;
+    fs::remove(database, ec);
+    times->retriangulation += triangulation + adjustment;
     HISFM_LOG_INFO(
         "refined from {} pairs (the skeleton's and the sequence's checked): "
         "re-triangulated in {:.1f} s, bundle-adjusted in {:.1f} s",
@@ -690,9 +703,8 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   outcome.num_segments = segments.size();
   Timer timer;
   // The segments' refinements are timed as stages of their own.
-  const double refined_before = times->filter_databases +
-                                times->retriangulation +
-                                times->bundle_adjustment;
+  const double refined_before =
+      times->filter_databases + times->retriangulation;
   std::vector<std::string> outputs;
   size_t num_refined = 0;
   for (size_t j = 0; j < segments.size(); ++j) {
@@ -731,15 +743,16 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   try {
     outcome.model = MergedModel(outputs, run.dir + "/scaffold/merged", options,
                                 &outcome.unmerged);
-    outcome.model.converged = num_refined == segments.size();
+    outcome.model.converged =
+        !outcome.model.empty() && num_refined == segments.size();
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
     HISFM_LOG_WARN("scaffold: {}", e.what());
   }
-  times->scaffold += timer.ElapsedSeconds() -
-                     (times->filter_databases + times->retriangulation +
-                      times->bundle_adjustment - refined_before);
+  times->scaffold +=
+      timer.ElapsedSeconds() -
+      (times->filter_databases + times->retriangulation - refined_before);
   if (outcome.model.empty()) {
     outcome.fallback = true;
     HISFM_LOG_WARN(
@@ -908,8 +921,13 @@ ModelFolder RescueUnregistered(const ComponentRun& run,
 // The pairs of `graph` (the cleaned database's) whose two images one of the
 // sequence pass's chain models registers: the pass's transfer test judged
 // each of them, and those left in the cleaned database agree with the chain.
+// The trusted edges the hierarchy's verifier rejected (`rejected`) are left
+// out: two judges, and either one's rejection stands.
 std::vector<ImagePair> SequenceCheckedPairs(
-    const ViewGraph& graph, const std::vector<Reconstruction>& chain_models) {
+    const ViewGraph& graph, const std::vector<Reconstruction>& chain_models,
+    const std::vector<RejectedTrustedEdge>& rejected) {
+  std::set<ImagePair> refused;
+  for (const RejectedTrustedEdge& r : rejected) refused.insert(r.pair);
   std::unordered_map<ImageId, size_t> model_of;
   for (size_t m = 0; m < chain_models.size(); ++m) {
     for (const auto& [id, image] : chain_models[m].images) model_of[id] = m;
@@ -918,7 +936,8 @@ std::vector<ImagePair> SequenceCheckedPairs(
   for (const ViewGraphEdge& e : graph.Edges()) {
     const auto a = model_of.find(e.pair.image_id1);
     const auto b = model_of.find(e.pair.image_id2);
-    if (a != model_of.end() && b != model_of.end() && a->second == b->second) {
+    if (a != model_of.end() && b != model_of.end() && a->second == b->second &&
+        !refused.count(e.pair)) {
       out.push_back(e.pair);
     }
   }
@@ -1394,8 +1413,8 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   // The summary counts the input's pairs, not the cleaned copy's.
   if (pass.ran) {
     in.num_verified_pairs = pass.num_input_pairs;
-    in.sequence_checked_pairs =
-        SequenceCheckedPairs(in.graph, pass.chain_models);
+    in.sequence_checked_pairs = SequenceCheckedPairs(
+        in.graph, pass.chain_models, in.rejected_trusted_edges);
   }
   const Hierarchy& h = in.hierarchy;
 

@@ -277,9 +277,6 @@ TEST(HierarchicalMapper, FacadeStreet60IsCorrectWhereColmapFolds) {
   ExpectCorrect("synthetic/facade_street_60", 60, "ground_truth");
 }
 
-// Writes the synthetic scene `scene` (num_images, seed; a family's
-// parameters drawn from the seed if `randomize_family`) to tmp/scene; the
-// mapper's paths for it, output to tmp/out.
 // The colmap commands of the component's log that start with `prefix`.
 std::vector<std::string> ColmapCommands(const std::string& component,
                                         const std::string& prefix) {
@@ -291,6 +288,9 @@ std::vector<std::string> ColmapCommands(const std::string& component,
   return out;
 }
 
+// Writes the synthetic scene `scene` (num_images, seed; a family's
+// parameters drawn from the seed if `randomize_family`) to tmp/scene; the
+// mapper's paths for it, output to tmp/out.
 MapperPaths SynthScene(const TempDir& tmp, const std::string& scene,
                        int num_images, uint32_t seed,
                        bool randomize_family = false) {

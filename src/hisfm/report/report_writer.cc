@@ -920,8 +920,8 @@ const std::vector<std::pair<std::string, std::string>>& MapperStageNames() {
       {"build_hierarchy", "build hierarchy (communities, skeleton, leaves)"},
       {"filter_databases", "write filtered databases"},
       {"scaffold", "scaffold (colmap mapper on the skeleton)"},
+      {"retriangulation", "scaffold segments refined (sequence pairs)"},
       {"attach", "attach leaves (colmap mapper)"},
-      {"retriangulation", "scaffold segments re-triangulated (sequence pairs)"},
       {"global_bundle_adjustment", "global bundle adjustment"}};
   return names;
 }
