@@ -260,6 +260,12 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
   visit("--HiSfM.refine_with_sequence_pairs", o->refine_with_sequence_pairs,
         "After the sequence pass: re-triangulate each scaffold segment from "
         "the pairs the pass checked and bundle-adjust it before the merge");
+  visit("--HiSfM.trust_sequence_checks", o->trust_sequence_checks,
+        "After the sequence pass: take the pairs it checked and kept as "
+        "verified instead of asking the verifier about them");
+  visit("--HiSfM.scaffold_from_sequence_chain", o->scaffold_from_sequence_chain,
+        "After the sequence pass: start the scaffold from its chain model, "
+        "refined, instead of reconstructing it again");
   visit("--HiSfM.refined_attach_ba_global_max_num_iterations",
         o->refined_attach_ba_global_max_num_iterations,
         "Attach run from refined scaffold segments: iterations of its "

@@ -27,4 +27,46 @@ std::vector<double> MemoScorer::Score(const std::vector<ImagePair>& pairs) {
   return out;
 }
 
+std::vector<double> PreVerifiedScorer::Forward(
+    const std::vector<ImagePair>& pairs,
+    const std::function<std::vector<double>(const std::vector<ImagePair>&)>&
+        value) {
+  std::vector<double> out(pairs.size(), 1.0);
+  std::vector<ImagePair> asked;
+  std::vector<size_t> where;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    if (accepted_->count(pairs[i])) {
+      answered_->insert(pairs[i]);
+    } else {
+      asked.push_back(pairs[i]);
+      where.push_back(i);
+    }
+  }
+  if (asked.empty()) return out;
+  const std::vector<double> values = value(asked);
+  ThrowUnless(values.size() == asked.size(),
+              StrCat("verifier '", Name(), "' returned ", values.size(),
+                     " values for ", asked.size(), " pairs"));
+  for (size_t k = 0; k < asked.size(); ++k) out[where[k]] = values[k];
+  return out;
+}
+
+std::vector<double> PreVerifiedScorer::Score(
+    const std::vector<ImagePair>& pairs) {
+  return Forward(pairs, [this](const std::vector<ImagePair>& asked) {
+    return Borrowed()->Score(asked);
+  });
+}
+
+double PreVerifiedScorer::ConsistentShare(const ImagePair& pair) {
+  return ConsistentShares({pair})[0];
+}
+
+std::vector<double> PreVerifiedScorer::ConsistentShares(
+    const std::vector<ImagePair>& pairs) {
+  return Forward(pairs, [this](const std::vector<ImagePair>& asked) {
+    return Borrowed()->ConsistentShares(asked);
+  });
+}
+
 }  // namespace hisfm

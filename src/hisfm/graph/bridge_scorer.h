@@ -5,7 +5,9 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <memory>
+#include <set>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -110,6 +112,41 @@ class MemoScorer : public BorrowedScorer {
  private:
   std::shared_ptr<BridgeScorer> owner_;
   PairScores* scores_;
+};
+
+/// Forwards to a scorer, except for the pairs a stronger test has already
+/// accepted (the sequence pass's transfer test against a multi-view model,
+/// recon/sequence_pass.h): those score 1 and keep every inlier
+/// (ConsistentShare 1) without a call to the scorer. The pairs answered so
+/// far are added to a set the caller owns, so that several of these
+/// scorers (one per build of the hierarchy) count them once.
+class PreVerifiedScorer : public BorrowedScorer {
+ public:
+  /// `scorer` is shared and must be non-null; `accepted` and `answered`
+  /// must be non-null and outlive this object.
+  PreVerifiedScorer(std::shared_ptr<BridgeScorer> scorer,
+                    const std::set<ImagePair>* accepted,
+                    std::set<ImagePair>* answered)
+      : BorrowedScorer(scorer.get()),
+        owner_(std::move(scorer)),
+        accepted_(accepted),
+        answered_(answered) {}
+  std::vector<double> Score(const std::vector<ImagePair>& pairs) override;
+  double ConsistentShare(const ImagePair& pair) override;
+  std::vector<double> ConsistentShares(
+      const std::vector<ImagePair>& pairs) override;
+
+ private:
+  // The scorer's values for `pairs`, 1 for the accepted ones (asked of
+  // `value` in one batch, the others only).
+  std::vector<double> Forward(
+      const std::vector<ImagePair>& pairs,
+      const std::function<std::vector<double>(const std::vector<ImagePair>&)>&
+          value);
+
+  std::shared_ptr<BridgeScorer> owner_;
+  const std::set<ImagePair>* accepted_;
+  std::set<ImagePair>* answered_;
 };
 
 /// The default of the foundation: accepts every bridge with score 1.

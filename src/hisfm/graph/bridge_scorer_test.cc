@@ -4,6 +4,7 @@
 
 #include <map>
 #include <memory>
+#include <set>
 
 #include "hisfm/util/error.h"
 
@@ -64,6 +65,34 @@ TEST(BridgeScorer, ConsistentSharesAreForwardedByTheAdapters) {
   MemoScorer memo_batch(batching, &scores);
   EXPECT_EQ(memo_batch.ConsistentShares({ImagePair(5, 90), ImagePair(6, 7)}),
             (std::vector<double>{0.05, 0.06}));
+}
+
+TEST(PreVerifiedScorer, AnswersAcceptedPairsWithoutAskingTheScorer) {
+  auto counting = std::make_shared<BatchCountingScorer>();
+  const std::set<ImagePair> accepted = {ImagePair(2, 3), ImagePair(7, 8)};
+  std::set<ImagePair> answered;
+  PreVerifiedScorer scorer(counting, &accepted, &answered);
+  // Accepted pairs score 1 in their place; the others are the scorer's, in
+  // one batch.
+  EXPECT_EQ(scorer.Score({ImagePair(1, 2), ImagePair(2, 3), ImagePair(5, 6)}),
+            (std::vector<double>{0.01, 1.0, 0.05}));
+  EXPECT_EQ(counting->calls.count(ImagePair(2, 3)), 0u);
+  EXPECT_EQ(counting->calls[ImagePair(1, 2)], 1);
+  // A batch of accepted pairs only asks nothing.
+  EXPECT_EQ(scorer.Score({ImagePair(7, 8)}), (std::vector<double>{1.0}));
+  EXPECT_EQ(counting->calls.size(), 2u);
+  // Accepted pairs keep every inlier; the others' shares are the scorer's,
+  // through its batch path.
+  EXPECT_DOUBLE_EQ(scorer.ConsistentShare(ImagePair(2, 3)), 1.0);
+  EXPECT_EQ(scorer.ConsistentShares({ImagePair(4, 9), ImagePair(7, 8)}),
+            (std::vector<double>{0.04, 1.0}));
+  // A second scorer over the same sets counts each answered pair once.
+  PreVerifiedScorer again(counting, &accepted, &answered);
+  again.Score({ImagePair(2, 3)});
+  EXPECT_EQ(answered, accepted);
+  // A scorer that returns too few scores is an error.
+  counting->drop_last = true;
+  EXPECT_THROW(scorer.Score({ImagePair(1, 2), ImagePair(5, 6)}), Error);
 }
 
 TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {

@@ -128,6 +128,8 @@ struct LoadedInput {
   // Pairs the sequence pass checked against its chain (SequenceCheckedPairs;
   // empty when it did not run).
   std::vector<ImagePair> sequence_checked_pairs;
+  // The sequence pass's chain models (null when it did not run).
+  const std::vector<Reconstruction>* chain_models = nullptr;
 };
 
 // With a plug-in verifier (VerifierOptions::IsPlugIn), what the builtin
@@ -172,9 +174,36 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
       in->reserve_edges.size(), after, before);
 }
 
-LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
-                                  const std::string& image_path,
-                                  const HierarchicalMapperOptions& options) {
+// The pairs of `graph` (the cleaned database's) whose two images one of the
+// sequence pass's chain models registers: the pass's transfer test judged
+// each of them, and those left in the cleaned database agree with the chain.
+// The trusted edges the hierarchy's verifier rejected (`rejected`) are left
+// out: two judges, and either one's rejection stands.
+std::vector<ImagePair> SequenceCheckedPairs(
+    const ViewGraph& graph, const std::vector<Reconstruction>& chain_models,
+    const std::vector<RejectedTrustedEdge>& rejected) {
+  std::set<ImagePair> refused;
+  for (const RejectedTrustedEdge& r : rejected) refused.insert(r.pair);
+  std::unordered_map<ImageId, size_t> model_of;
+  for (size_t m = 0; m < chain_models.size(); ++m) {
+    for (const auto& [id, image] : chain_models[m].images) model_of[id] = m;
+  }
+  std::vector<ImagePair> out;
+  for (const ViewGraphEdge& e : graph.Edges()) {
+    const auto a = model_of.find(e.pair.image_id1);
+    const auto b = model_of.find(e.pair.image_id2);
+    if (a != model_of.end() && b != model_of.end() && a->second == b->second &&
+        !refused.count(e.pair)) {
+      out.push_back(e.pair);
+    }
+  }
+  return out;
+}
+
+LoadedInput LoadAndBuildHierarchy(
+    const std::string& database_path, const std::string& image_path,
+    const HierarchicalMapperOptions& options,
+    const std::vector<Reconstruction>& chain_models = {}) {
   LoadedInput in;
   Timer timer;
   in.database = std::make_unique<Database>(database_path);
@@ -214,13 +243,25 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
   ThrowIfInterrupted();
   LogHeading("Building the hierarchy");
   const Database& db = *in.database;
+  // The pairs the sequence pass's transfer test kept (trust_sequence_checks).
+  std::set<ImagePair> pre_verified;
+  if (options.trust_sequence_checks) {
+    for (const ImagePair& p :
+         SequenceCheckedPairs(in.graph, chain_models, {})) {
+      pre_verified.insert(p);
+    }
+  }
+  std::set<ImagePair> answered;
+  size_t num_pre_verified = 0;
   if (options.verifier.IsMultiView()) {
     MultiViewVerifier verifier(db, in.graph, options.verifier.multiview);
     in.verifier_name = verifier.Name();
     VerifiedHierarchy verified = BuildVerifiedHierarchy(
         options.verifier.burstiness_weights ? verifier.RankingGraph()
                                             : in.graph,
-        verifier, options.hierarchy, options.verifier.verified_hierarchy);
+        verifier, options.hierarchy, options.verifier.verified_hierarchy,
+        &pre_verified);
+    num_pre_verified = verified.num_pre_verified;
     in.hierarchy = std::move(verified.hierarchy);
     in.inliers = std::move(verified.inliers);
     in.reserve_edges = std::move(verified.reserve_edges);
@@ -241,7 +282,7 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
     // A verifier that does not read the communities is created once and
     // lent to every build (a scores file is parsed once).
     std::unique_ptr<BridgeScorer> reused;
-    const ScorerFactory make_scorer =
+    const ScorerFactory make_verifier =
         [&](const Communities& communities) -> std::unique_ptr<BridgeScorer> {
       if (reused) return std::make_unique<BorrowedScorer>(reused.get());
       VerifierContext context;
@@ -257,6 +298,13 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
       if (per_build) return scorer;
       reused = std::move(scorer);
       return std::make_unique<BorrowedScorer>(reused.get());
+    };
+    const ScorerFactory make_scorer =
+        [&](const Communities& communities) -> std::unique_ptr<BridgeScorer> {
+      std::unique_ptr<BridgeScorer> made = make_verifier(communities);
+      if (!made || pre_verified.empty()) return made;
+      return std::make_unique<PreVerifiedScorer>(std::move(made), &pre_verified,
+                                                 &answered);
     };
     // Every score, so that the support edges ask the plug-in only about
     // pairs the hierarchy's rounds did not.
@@ -293,6 +341,14 @@ LoadedInput LoadAndBuildHierarchy(const std::string& database_path,
       MemoScorer memo(make_scorer(in.hierarchy.communities), &scores);
       AddPlugInGeometry(db, memo, scores, options, &in);
     }
+    num_pre_verified = answered.size();
+  }
+  if (!pre_verified.empty()) {
+    in.verification["pairs_pre_verified"] = num_pre_verified;
+    HISFM_LOG_INFO(
+        "{} of the {} pairs the sequence pass checked and kept were asked "
+        "about and taken as verified, without the verifier",
+        num_pre_verified, pre_verified.size());
   }
   in.graph_seconds = timer.ElapsedSeconds();
   const Hierarchy& h = in.hierarchy;
@@ -336,6 +392,16 @@ void AddBundleAdjustmentFlags(const HierarchicalMapperOptions& options,
                  FormatScientific(options.ba_global_function_tolerance), args);
   AddDefaultFlag(options.mapper_args, "--Mapper.ba_local_max_refinements",
                  std::to_string(options.ba_local_max_refinements), args);
+}
+
+// The global adjustments' relative function tolerance: the user's
+// --Mapper.ba_global_function_tolerance if given, else the option's.
+std::string GlobalFunctionTolerance(const HierarchicalMapperOptions& options) {
+  const std::vector<std::string>& user = options.mapper_args;
+  for (size_t i = 0; i + 1 < user.size(); ++i) {
+    if (user[i] == "--Mapper.ba_global_function_tolerance") return user[i + 1];
+  }
+  return FormatScientific(options.ba_global_function_tolerance);
 }
 
 void WriteImageList(const std::vector<ImageId>& ids,
@@ -551,6 +617,9 @@ struct ScaffoldOutcome {
   size_t num_segments = 1;
   // The scaffold's sub-models that could not be merged into `model`.
   std::vector<Reconstruction> unmerged;
+  // True when it is the sequence pass's chain model, refined
+  // (scaffold_from_sequence_chain).
+  bool from_chain = false;
 };
 
 // colmap mapper's arguments for a scaffold run on the skeleton's images
@@ -603,7 +672,8 @@ std::vector<ImagePair> SegmentRefinementPairs(
 // refine_with_sequence_pairs: re-triangulates each numbered sub-model under
 // `output` (one scaffold segment's run) from the skeleton's edges and the
 // sequence's checked pairs between its images, poses fixed (colmap
-// point_triangulator), and bundle-adjusts it with colmap's defaults, into
+// point_triangulator), and bundle-adjusts it (colmap's defaults but the
+// global adjustments' function tolerance), into
 // the same numbers under `refined`. Returns `refined`, or `output` when
 // there is nothing to refine (the option is off, or the sequence pass
 // checked no pair) or colmap fails (logged).
@@ -653,10 +723,12 @@ std::string RefineSegment(const ComponentRun& run,
       args.insert(args.end(), options.mapper_args.begin(),
                   options.mapper_args.end());
       triangulation += RunColmap(options.colmap, args, run.Log());
-      adjustment += RunColmap(options.colmap,
-                              {"bundle_adjuster", "--input_path", points,
-                               "--output_path", adjusted},
-                              run.Log());
+      adjustment +=
+          RunColmap(options.colmap,
+                    {"bundle_adjuster", "--input_path", points, "--output_path",
+                     adjusted, "--BundleAdjustment.function_tolerance",
+                     GlobalFunctionTolerance(options)},
+                    run.Log());
       fs::remove_all(points, ec);
     }
     fs::remove(database, ec);
@@ -675,6 +747,46 @@ std::string RefineSegment(const ComponentRun& run,
   }
 }
 
+// scaffold_from_sequence_chain: the sequence pass's chain model that
+// registers every skeletal image of the component, or null when there is
+// none, the option is off, or nothing could refine it (no checked pair).
+const Reconstruction* ChainHoldingSkeleton(
+    const HierarchyComponent& comp, const LoadedInput& in,
+    const HierarchicalMapperOptions& options) {
+  if (!options.scaffold_from_sequence_chain || !in.chain_models ||
+      !options.refine_with_sequence_pairs ||
+      in.sequence_checked_pairs.empty()) {
+    return nullptr;
+  }
+  for (const Reconstruction& model : *in.chain_models) {
+    if (std::all_of(comp.skeleton_images.begin(), comp.skeleton_images.end(),
+                    [&](ImageId id) { return model.images.count(id) > 0; })) {
+      return &model;
+    }
+  }
+  return nullptr;
+}
+
+// Writes `chain` without the images outside `images` (sorted) to
+// `output`/0, as a colmap run on them would write its first sub-model.
+void WriteChainSegment(const Reconstruction& chain,
+                       const std::vector<ImageId>& images,
+                       const std::string& output) {
+  Reconstruction model = chain;
+  std::set<ImageId> others;
+  for (const auto& [id, image] : model.images) {
+    if (!std::binary_search(images.begin(), images.end(), id)) {
+      others.insert(id);
+    }
+  }
+  RemoveImages(others, &model);
+  std::error_code ec;
+  fs::remove_all(output + "/0", ec);
+  fs::create_directories(output + "/0", ec);
+  ThrowUnless(!ec, StrCat("cannot create ", output, "/0: ", ec.message()));
+  WriteModelBinary(model, output + "/0");
+}
+
 // Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton of
 // more than options.scaffold_segment_images images (with merge_sub_models)
 // is reconstructed in
@@ -688,19 +800,24 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
                                     const LoadedInput& in,
                                     const HierarchicalMapperOptions& options,
                                     StageTimes* times) {
+  const Reconstruction* chain = ChainHoldingSkeleton(comp, in, options);
   const std::vector<std::vector<ImageId>> segments =
       GraphSegments(comp.skeleton_images, comp.skeleton_edges,
                     options.merge_sub_models
                         ? static_cast<size_t>(options.scaffold_segment_images)
                         : 0,
                     static_cast<size_t>(options.scaffold_segment_overlap));
-  LogHeading(StrCat("Scaffold: colmap mapper on ", comp.skeleton_images.size(),
-                    " skeletal images, ", comp.skeleton_edges.size(), " edges",
+  LogHeading(StrCat("Scaffold: ",
+                    chain ? "the sequence pass's chain model, refined, on "
+                          : "colmap mapper on ",
+                    comp.skeleton_images.size(), " skeletal images, ",
+                    comp.skeleton_edges.size(), " edges",
                     segments.size() > 1 ? StrCat(", in ", segments.size(),
                                                  " overlapping segments")
                                         : std::string()));
   ScaffoldOutcome outcome;
   outcome.num_segments = segments.size();
+  outcome.from_chain = chain != nullptr;
   Timer timer;
   // The segments' refinements are timed as stages of their own.
   const double refined_before =
@@ -721,10 +838,16 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
       fs::create_directories(output, ec);
     }
     try {
-      RunColmapWithProgress(
-          options.colmap, ScaffoldArgs(run, options, image_list, output),
-          run.Log(), what, segments[j].size(), ParseMapperProgress);
-      outputs.push_back(segments.size() > 1
+      if (chain) {
+        std::vector<ImageId> images = segments[j];
+        std::sort(images.begin(), images.end());
+        WriteChainSegment(*chain, images, output);
+      } else {
+        RunColmapWithProgress(
+            options.colmap, ScaffoldArgs(run, options, image_list, output),
+            run.Log(), what, segments[j].size(), ParseMapperProgress);
+      }
+      outputs.push_back(segments.size() > 1 || chain
                             ? RefineSegment(run, comp, in, options, output,
                                             output + "_refined", times)
                             : output);
@@ -916,32 +1039,6 @@ ModelFolder RescueUnregistered(const ComponentRun& run,
   }
   return rescued.num_registered > attached.num_registered ? rescued
                                                           : attached;
-}
-
-// The pairs of `graph` (the cleaned database's) whose two images one of the
-// sequence pass's chain models registers: the pass's transfer test judged
-// each of them, and those left in the cleaned database agree with the chain.
-// The trusted edges the hierarchy's verifier rejected (`rejected`) are left
-// out: two judges, and either one's rejection stands.
-std::vector<ImagePair> SequenceCheckedPairs(
-    const ViewGraph& graph, const std::vector<Reconstruction>& chain_models,
-    const std::vector<RejectedTrustedEdge>& rejected) {
-  std::set<ImagePair> refused;
-  for (const RejectedTrustedEdge& r : rejected) refused.insert(r.pair);
-  std::unordered_map<ImageId, size_t> model_of;
-  for (size_t m = 0; m < chain_models.size(); ++m) {
-    for (const auto& [id, image] : chain_models[m].images) model_of[id] = m;
-  }
-  std::vector<ImagePair> out;
-  for (const ViewGraphEdge& e : graph.Edges()) {
-    const auto a = model_of.find(e.pair.image_id1);
-    const auto b = model_of.find(e.pair.image_id2);
-    if (a != model_of.end() && b != model_of.end() && a->second == b->second &&
-        !refused.count(e.pair)) {
-      out.push_back(e.pair);
-    }
-  }
-  return out;
 }
 
 // The optional extra global bundle adjustment; returns the final model.
@@ -1286,6 +1383,7 @@ nlohmann::json ComponentStats(const ComponentModel& result,
   stats["scaffold_fallback"] = result.scaffold.fallback;
   stats["scaffold_segments"] = result.scaffold.num_segments;
   stats["scaffold_merged_sub_models"] = result.scaffold.model.num_merged;
+  stats["scaffold_from_chain"] = result.scaffold.from_chain;
   stats["reseeded_images"] = result.num_reseeded;
   stats["joined_images"] = result.num_joined;
   stats["path"] = std::to_string(index);
@@ -1407,14 +1505,15 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   const std::string database_path =
       pass.ran ? pass.cleaned_database_path : paths.database_path;
   ThrowIfInterrupted();
-  LoadedInput in =
-      LoadAndBuildHierarchy(database_path, paths.image_path, options);
+  LoadedInput in = LoadAndBuildHierarchy(database_path, paths.image_path,
+                                         options, pass.chain_models);
   in.sequence_seconds = pass.seconds;
   // The summary counts the input's pairs, not the cleaned copy's.
   if (pass.ran) {
     in.num_verified_pairs = pass.num_input_pairs;
     in.sequence_checked_pairs = SequenceCheckedPairs(
         in.graph, pass.chain_models, in.rejected_trusted_edges);
+    in.chain_models = &pass.chain_models;
   }
   const Hierarchy& h = in.hierarchy;
 

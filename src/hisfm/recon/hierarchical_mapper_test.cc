@@ -163,8 +163,12 @@ void ExpectCorrect(
   paths.output_path = tmp / "out";
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
   if (summary_out != nullptr) *summary_out = summary;
-  EXPECT_GT(summary["verification"]["pairs_evaluated"].get<int>(), 0)
-      << "the builtin verifier judged no pair";
+  // After the sequence pass its kept pairs need no verifier
+  // (trust_sequence_checks); some pair was judged either way.
+  EXPECT_GT(summary["verification"]["pairs_evaluated"].get<int>() +
+                summary["verification"].value("pairs_pre_verified", 0),
+            0)
+      << "no pair was judged, by the verifier or the sequence pass";
   EXPECT_LT(summary["verified_fraction"].get<double>(), 0.25);
   const Reconstruction reference =
       ReadModel(SharedDataPath(scene, reference_dir));
@@ -319,6 +323,8 @@ TEST(HierarchicalMapper, BundleAdjustmentScheduleReachesColmap) {
   options.ba_local_max_refinements = 3;
   options.scaffold_ba_global_max_refinements = 3;
   options.mapper_args = {"--Mapper.ba_global_function_tolerance", "1e-09"};
+  // A scaffold run of colmap mapper, not the sequence pass's chain.
+  options.scaffold_from_sequence_chain = false;
   RunHierarchicalMapper(paths, options);
   std::ifstream log(tmp / "out_work/component0/colmap.log");
   std::vector<std::string> commands;
@@ -429,8 +435,11 @@ TEST(HierarchicalMapper, ScaffoldSegmentsAreRefinedFromTheSequencesPairs) {
   HierarchicalMapperOptions options;
   options.scaffold_segment_images = 20;
   options.scaffold_segment_overlap = 8;
+  // The scaffold is reconstructed, not taken from the chain.
+  options.scaffold_from_sequence_chain = false;
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
   ASSERT_TRUE(summary["sequence"]["ran"].get<bool>());
+  EXPECT_FALSE(summary["models"][0]["scaffold_from_chain"].get<bool>());
   const size_t segments =
       summary["models"][0]["scaffold_segments"].get<size_t>();
   ASSERT_GE(segments, 2u);
@@ -488,6 +497,97 @@ TEST(HierarchicalMapper, ScaffoldSegmentsAreRefinedFromTheSequencesPairs) {
             std::string::npos);
 }
 
+// --HiSfM.scaffold_from_sequence_chain and --HiSfM.trust_sequence_checks:
+// after the sequence pass the scaffold is the chain's model without the
+// leaves, re-triangulated and adjusted (no colmap mapper run on the
+// skeleton), the leaves are attached to it on the hierarchy's edges, and
+// the pairs the pass kept are not asked of the verifier; the street is
+// correct. Off, the scaffold is reconstructed and the verifier judges them.
+TEST(HierarchicalMapper, ScaffoldStartsFromTheSequencesChain) {
+  if (!ColmapAvailable()) GTEST_SKIP() << "colmap is not installed";
+  TempDir tmp;
+  const MapperPaths paths = SynthScene(tmp, "street_control", 60, 2);
+  const nlohmann::json summary = RunHierarchicalMapper(paths, {});
+  ASSERT_TRUE(summary["sequence"]["ran"].get<bool>());
+  const nlohmann::json& model = summary["models"][0];
+  EXPECT_TRUE(model["scaffold_from_chain"].get<bool>());
+  const std::string component = tmp / "out_work/component0";
+  const Reconstruction scaffold =
+      ReadModelBinary(component + "/scaffold_refined/0");
+  EXPECT_EQ(scaffold.NumRegImages(), model["scaffold_images"].get<size_t>());
+  EXPECT_LT(scaffold.NumRegImages(), 60u) << "the leaves are attached later";
+  // One colmap mapper run, the attach run from the refined chain, capped.
+  const std::vector<std::string> mappers =
+      ColmapCommands(component, "$ colmap mapper");
+  ASSERT_EQ(mappers.size(), 1u);
+  EXPECT_NE(
+      mappers[0].find("--input_path " + component + "/scaffold_refined/0 "),
+      std::string::npos)
+      << mappers[0];
+  EXPECT_NE(mappers[0].find("--Mapper.ba_global_max_num_iterations 10 "),
+            std::string::npos)
+      << mappers[0];
+  EXPECT_EQ(ColmapCommands(component, "$ colmap point_triangulator").size(),
+            1u);
+  // Its adjustment stops at the global adjustments' tolerance.
+  const std::vector<std::string> adjusters =
+      ColmapCommands(component, "$ colmap bundle_adjuster");
+  ASSERT_EQ(adjusters.size(), 1u);
+  EXPECT_NE(adjusters[0].find("--BundleAdjustment.function_tolerance 1e-07 "),
+            std::string::npos)
+      << adjusters[0];
+  const size_t trusted =
+      summary["verification"]["pairs_pre_verified"].get<size_t>();
+  EXPECT_GT(trusted, 0u);
+  const PoseEvaluation e = EvaluateModel(
+      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(e.num_registered, 60u);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+
+  MapperPaths off = paths;
+  off.output_path = tmp / "off";
+  off.work_path = tmp / "off_work";
+  HierarchicalMapperOptions options;
+  options.scaffold_from_sequence_chain = false;
+  options.trust_sequence_checks = false;
+  const nlohmann::json off_summary = RunHierarchicalMapper(off, options);
+  EXPECT_FALSE(off_summary["models"][0]["scaffold_from_chain"].get<bool>());
+  EXPECT_EQ(
+      ColmapCommands(tmp / "off_work/component0", "$ colmap mapper").size(),
+      2u);
+  EXPECT_FALSE(off_summary["verification"].contains("pairs_pre_verified"));
+  EXPECT_GT(off_summary["verification"]["pairs_evaluated"].get<size_t>(),
+            summary["verification"]["pairs_evaluated"].get<size_t>());
+
+  // A chain longer than a scaffold segment is cut, refined and merged as
+  // reconstructed segments are.
+  MapperPaths cut = paths;
+  cut.output_path = tmp / "cut";
+  cut.work_path = tmp / "cut_work";
+  HierarchicalMapperOptions segmented;
+  segmented.scaffold_segment_images = 20;
+  segmented.scaffold_segment_overlap = 8;
+  const nlohmann::json cut_summary = RunHierarchicalMapper(cut, segmented);
+  const nlohmann::json& cut_model = cut_summary["models"][0];
+  EXPECT_TRUE(cut_model["scaffold_from_chain"].get<bool>());
+  const size_t segments = cut_model["scaffold_segments"].get<size_t>();
+  EXPECT_GE(segments, 2u);
+  const std::string cut_component = tmp / "cut_work/component0";
+  EXPECT_EQ(ColmapCommands(cut_component, "$ colmap point_triangulator").size(),
+            segments);
+  const std::vector<std::string> cut_mappers =
+      ColmapCommands(cut_component, "$ colmap mapper");
+  ASSERT_EQ(cut_mappers.size(), 1u);
+  EXPECT_NE(cut_mappers[0].find("--input_path " + cut_component +
+                                "/scaffold/merged "),
+            std::string::npos)
+      << cut_mappers[0];
+  const PoseEvaluation c = EvaluateModel(
+      ReadModel(tmp / "cut/0"), ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(c.num_registered, 60u);
+  EXPECT_TRUE(c.correct) << c.verdict_reason;
+}
+
 // --HiSfM.global_bundle_adjustment: one colmap bundle_adjuster on the
 // attached model, whose output (refined/) is the component's model.
 TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
@@ -496,6 +596,8 @@ TEST(HierarchicalMapper, GlobalBundleAdjustmentRefinesTheAttachedModel) {
   const MapperPaths paths = SynthScene(tmp, "object_control", 16, 3);
   HierarchicalMapperOptions options;
   options.global_bundle_adjustment = true;
+  // No refinement of the sequence pass's chain before it.
+  options.scaffold_from_sequence_chain = false;
   const nlohmann::json summary = RunHierarchicalMapper(paths, options);
   const std::string component = tmp / "out_work/component0";
   std::ifstream log(component + "/colmap.log");

@@ -93,35 +93,47 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
 VerifiedHierarchy BuildVerifiedHierarchy(
     const ViewGraph& graph, MultiViewVerifier& verifier,
     const HierarchyOptions& hierarchy_options,
-    const VerifiedHierarchyOptions& options) {
+    const VerifiedHierarchyOptions& options,
+    const std::set<ImagePair>* pre_verified) {
   options.Check();
   // The pairs among the few strongest of both their images
   // (VerifiedHierarchyOptions::trusted_keep_rank).
   const std::set<ImagePair> kept_by_rank = PairsOfMutualRankAtMost(
       graph, static_cast<uint32_t>(options.trusted_keep_rank));
+  const std::set<ImagePair> none;
+  const std::set<ImagePair>& accepted = pre_verified ? *pre_verified : none;
+  std::set<ImagePair> answered;
+  PreVerifiedScorer scorer(std::make_shared<BorrowedScorer>(&verifier),
+                           &accepted, &answered);
   VerifiedHierarchy out;
   static_cast<JudgedHierarchy&>(out) = BuildHierarchyJudgingTrustedEdges(
       graph,
-      [&verifier](const Communities&) -> std::unique_ptr<BridgeScorer> {
-        return std::make_unique<BorrowedScorer>(&verifier);
+      [&scorer](const Communities&) -> std::unique_ptr<BridgeScorer> {
+        return std::make_unique<BorrowedScorer>(&scorer);
       },
       hierarchy_options, options.trusted_edges,
       // Only the test's evidence removes a trusted edge: a pair it could
       // not judge keeps the trust the paper gives it, and so does a pair
-      // among the strongest of both its images.
-      [&verifier, &kept_by_rank](const ImagePair& pair) {
-        return !kept_by_rank.count(pair) && verifier.Features(pair).Speaks();
+      // among the strongest of both its images or a pre-verified one.
+      [&verifier, &kept_by_rank, &accepted](const ImagePair& pair) {
+        return !kept_by_rank.count(pair) && !accepted.count(pair) &&
+               verifier.Features(pair).Speaks();
       });
-  AddSupportEdges(out.graph, verifier, options.support_edges,
-                  options.support_threshold, &out.hierarchy,
-                  &out.reserve_edges,
+  AddSupportEdges(out.graph, scorer, options.support_edges,
+                  options.support_threshold, &out.hierarchy, &out.reserve_edges,
                   hierarchy_options.skeleton.verify_threshold);
   if (options.clean_inliers) {
-    std::vector<ImagePair> used = out.hierarchy.Edges();
-    for (const ViewGraphEdge& e : out.reserve_edges) used.push_back(e.pair);
+    std::vector<ImagePair> used;
+    for (const ImagePair& p : out.hierarchy.Edges()) {
+      if (!accepted.count(p)) used.push_back(p);
+    }
+    for (const ViewGraphEdge& e : out.reserve_edges) {
+      if (!accepted.count(e.pair)) used.push_back(e.pair);
+    }
     CleanInliers(used, verifier, &out.inliers, &out.num_inliers_before,
                  &out.num_inliers_after);
   }
+  out.num_pre_verified = answered.size();
   return out;
 }
 

@@ -8,6 +8,7 @@
 // with the geometry it accepted: the reconstruction uses only those.
 #pragma once
 
+#include <set>
 #include <unordered_map>
 #include <vector>
 
@@ -74,6 +75,9 @@ struct VerifiedHierarchy : JudgedHierarchy {
   /// reserve edges.
   size_t num_inliers_before = 0;
   size_t num_inliers_after = 0;
+  /// Pairs the hierarchy asked about that were answered as pre-verified
+  /// (BuildVerifiedHierarchy's `pre_verified`), without the verifier.
+  size_t num_pre_verified = 0;
 };
 
 /// Adds to `hierarchy` each image's `count` strongest pairs of `graph` that
@@ -100,10 +104,13 @@ void CleanInliers(
 /// Builds the hierarchy of `graph` with `verifier` scoring bridges (against
 /// the skeleton's verify_threshold) and trusted edges (against
 /// trusted_edges.threshold, except those trusted_keep_rank keeps; see the
-/// file comment).
+/// file comment). The pairs of `pre_verified` (if given; pairs a stronger
+/// test accepted, PreVerifiedScorer) are not asked of `verifier`: they
+/// score 1, are never rejected and keep their inliers uncleaned.
 VerifiedHierarchy BuildVerifiedHierarchy(
     const ViewGraph& graph, MultiViewVerifier& verifier,
     const HierarchyOptions& hierarchy_options,
-    const VerifiedHierarchyOptions& options);
+    const VerifiedHierarchyOptions& options,
+    const std::set<ImagePair>* pre_verified = nullptr);
 
 }  // namespace hisfm
