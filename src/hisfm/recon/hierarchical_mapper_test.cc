@@ -311,6 +311,25 @@ MapperPaths SynthScene(const TempDir& tmp, const std::string& scene,
   return paths;
 }
 
+// `paths` with the output in tmp/NAME and the work folder in tmp/NAME_work.
+MapperPaths OtherOutput(const MapperPaths& paths, const TempDir& tmp,
+                        const std::string& name) {
+  MapperPaths other = paths;
+  other.output_path = tmp / name;
+  other.work_path = tmp / (name + "_work");
+  return other;
+}
+
+// The model tmp/MODEL registers the synthetic scene's `num_images` images
+// (SynthScene) and is correct against its ground truth.
+void ExpectSceneCorrect(const TempDir& tmp, const std::string& model,
+                        size_t num_images) {
+  const PoseEvaluation e = EvaluateModel(
+      ReadModel(tmp / model), ReadModel(tmp / "scene/ground_truth"), {});
+  EXPECT_EQ(e.num_registered, num_images);
+  EXPECT_TRUE(e.correct) << e.verdict_reason;
+}
+
 // The scaffold's bundle adjustment schedule and the global tolerance reach
 // colmap; an explicit --Mapper flag replaces HiSfM's default instead of
 // being repeated; the result stays correct on a synthetic ring.
@@ -404,10 +423,7 @@ TEST(HierarchicalMapper, ALargeScaffoldIsReconstructedInSegmentsThatMerge) {
   EXPECT_TRUE(
       ColmapCommands(tmp / "out_work/component0", "$ colmap point_triangulator")
           .empty());
-  const PoseEvaluation e = EvaluateModel(
-      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
-  EXPECT_EQ(e.num_registered, 60u);
-  EXPECT_TRUE(e.correct) << e.verdict_reason;
+  ExpectSceneCorrect(tmp, "out/0", 60);
 
   // Segments need their merge: without it the scaffold is one run.
   MapperPaths unmerged = paths;
@@ -473,14 +489,9 @@ TEST(HierarchicalMapper, ScaffoldSegmentsAreRefinedFromTheSequencesPairs) {
     EXPECT_NE(line.find(capped), std::string::npos) << line;
   }
   EXPECT_EQ(attach_runs, 1u);
-  const PoseEvaluation e = EvaluateModel(
-      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
-  EXPECT_EQ(e.num_registered, 60u);
-  EXPECT_TRUE(e.correct) << e.verdict_reason;
+  ExpectSceneCorrect(tmp, "out/0", 60);
 
-  MapperPaths off = paths;
-  off.output_path = tmp / "off";
-  off.work_path = tmp / "off_work";
+  const MapperPaths off = OtherOutput(paths, tmp, "off");
   HierarchicalMapperOptions no_refinement = options;
   no_refinement.refine_with_sequence_pairs = false;
   RunHierarchicalMapper(off, no_refinement);
@@ -539,14 +550,9 @@ TEST(HierarchicalMapper, ScaffoldStartsFromTheSequencesChain) {
   const size_t trusted =
       summary["verification"]["pairs_pre_verified"].get<size_t>();
   EXPECT_GT(trusted, 0u);
-  const PoseEvaluation e = EvaluateModel(
-      ReadModel(tmp / "out/0"), ReadModel(tmp / "scene/ground_truth"), {});
-  EXPECT_EQ(e.num_registered, 60u);
-  EXPECT_TRUE(e.correct) << e.verdict_reason;
+  ExpectSceneCorrect(tmp, "out/0", 60);
 
-  MapperPaths off = paths;
-  off.output_path = tmp / "off";
-  off.work_path = tmp / "off_work";
+  const MapperPaths off = OtherOutput(paths, tmp, "off");
   HierarchicalMapperOptions options;
   options.scaffold_from_sequence_chain = false;
   options.trust_sequence_checks = false;
@@ -561,9 +567,7 @@ TEST(HierarchicalMapper, ScaffoldStartsFromTheSequencesChain) {
 
   // A chain longer than a scaffold segment is cut, refined and merged as
   // reconstructed segments are.
-  MapperPaths cut = paths;
-  cut.output_path = tmp / "cut";
-  cut.work_path = tmp / "cut_work";
+  const MapperPaths cut = OtherOutput(paths, tmp, "cut");
   HierarchicalMapperOptions segmented;
   segmented.scaffold_segment_images = 20;
   segmented.scaffold_segment_overlap = 8;
@@ -582,10 +586,7 @@ TEST(HierarchicalMapper, ScaffoldStartsFromTheSequencesChain) {
                                 "/scaffold/merged "),
             std::string::npos)
       << cut_mappers[0];
-  const PoseEvaluation c = EvaluateModel(
-      ReadModel(tmp / "cut/0"), ReadModel(tmp / "scene/ground_truth"), {});
-  EXPECT_EQ(c.num_registered, 60u);
-  EXPECT_TRUE(c.correct) << c.verdict_reason;
+  ExpectSceneCorrect(tmp, "cut/0", 60);
 }
 
 // --HiSfM.global_bundle_adjustment: one colmap bundle_adjuster on the
