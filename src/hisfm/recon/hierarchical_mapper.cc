@@ -11,6 +11,7 @@
 #include "hisfm/io/database.h"
 #include "hisfm/io/database_validation.h"
 #include "hisfm/io/model.h"
+#include "hisfm/recon/chain_scaffold.h"
 #include "hisfm/recon/feature_pipeline.h"
 #include "hisfm/recon/hierarchy_json.h"
 #include "hisfm/recon/input_check.h"
@@ -128,8 +129,10 @@ struct LoadedInput {
   // Pairs the sequence pass checked against its chain (SequenceCheckedPairs;
   // empty when it did not run).
   std::vector<ImagePair> sequence_checked_pairs;
-  // The sequence pass's chain models (null when it did not run).
+  // The sequence pass's chain models (null when it did not run), and the
+  // loop closures it kept (SequencePassResult::num_loop_closures).
   const std::vector<Reconstruction>* chain_models = nullptr;
+  size_t sequence_loop_closures = 0;
 };
 
 // With a plug-in verifier (VerifierOptions::IsPlugIn), what the builtin
@@ -747,9 +750,9 @@ std::string RefineSegment(const ComponentRun& run,
   }
 }
 
-// scaffold_from_sequence_chain: the sequence pass's chain model that
-// registers every skeletal image of the component, or null when there is
-// none, the option is off, or nothing could refine it (no checked pair).
+// scaffold_from_sequence_chain: the sequence pass's chain model that can be
+// the component's scaffold (ChainModelForScaffold), or null when the option
+// is off or nothing could refine it (no checked pair).
 const Reconstruction* ChainHoldingSkeleton(
     const HierarchyComponent& comp, const LoadedInput& in,
     const HierarchicalMapperOptions& options) {
@@ -758,28 +761,22 @@ const Reconstruction* ChainHoldingSkeleton(
       in.sequence_checked_pairs.empty()) {
     return nullptr;
   }
-  for (const Reconstruction& model : *in.chain_models) {
-    if (std::all_of(comp.skeleton_images.begin(), comp.skeleton_images.end(),
-                    [&](ImageId id) { return model.images.count(id) > 0; })) {
-      return &model;
-    }
+  if (in.sequence_loop_closures > 0) {
+    HISFM_LOG_INFO(
+        "the sequence pass kept {} loop closure(s): its chain drifts, so the "
+        "scaffold is reconstructed, not taken from it",
+        in.sequence_loop_closures);
   }
-  return nullptr;
+  return ChainModelForScaffold(comp.skeleton_images, *in.chain_models,
+                               in.sequence_loop_closures);
 }
 
-// Writes `chain` without the images outside `images` (sorted) to
-// `output`/0, as a colmap run on them would write its first sub-model.
+// Writes ChainSegment(chain, images) to `output`/0, as a colmap run on the
+// images would write its first sub-model.
 void WriteChainSegment(const Reconstruction& chain,
                        const std::vector<ImageId>& images,
                        const std::string& output) {
-  Reconstruction model = chain;
-  std::set<ImageId> others;
-  for (const auto& [id, image] : model.images) {
-    if (!std::binary_search(images.begin(), images.end(), id)) {
-      others.insert(id);
-    }
-  }
-  RemoveImages(others, &model);
+  const Reconstruction model = ChainSegment(chain, images);
   std::error_code ec;
   fs::remove_all(output + "/0", ec);
   fs::create_directories(output + "/0", ec);
@@ -839,9 +836,7 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
     }
     try {
       if (chain) {
-        std::vector<ImageId> images = segments[j];
-        std::sort(images.begin(), images.end());
-        WriteChainSegment(*chain, images, output);
+        WriteChainSegment(*chain, segments[j], output);
       } else {
         RunColmapWithProgress(
             options.colmap, ScaffoldArgs(run, options, image_list, output),
@@ -1514,6 +1509,7 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
     in.sequence_checked_pairs = SequenceCheckedPairs(
         in.graph, pass.chain_models, in.rejected_trusted_edges);
     in.chain_models = &pass.chain_models;
+    in.sequence_loop_closures = pass.num_loop_closures;
   }
   const Hierarchy& h = in.hierarchy;
 

@@ -149,7 +149,12 @@ struct HierarchicalMapperOptions {
   /// in the database agrees with it; the second reconstruction was most of
   /// the mapper's time after the pass (docs/decisions.md, twenty-eighth
   /// session). A segment whose refinement fails is merged as the chain has
-  /// it (logged).
+  /// it (logged). Not when the pass kept loop closures: the chain then
+  /// drifted past the transfer test (on block_loop_1000_s2, held-out, its
+  /// closures landed 21 camera spacings off), and a re-triangulation with
+  /// the chain's poses fixed cannot bring the loop's ends together; the
+  /// scaffold is then reconstructed by colmap mapper from the hierarchy,
+  /// closures included.
   bool scaffold_from_sequence_chain = true;
   /// The attach run from a scaffold whose segments were all refined
   /// (refine_with_sequence_pairs) stops its global bundle adjustment after
