@@ -10,7 +10,7 @@ namespace hisfm {
 const Reconstruction* ChainModelForScaffold(
     const std::vector<ImageId>& skeleton_images,
     const std::vector<Reconstruction>& chain_models, size_t num_loop_closures) {
-  if (num_loop_closures > 0) return nullptr;
+  if (num_loop_closures > 0 || skeleton_images.empty()) return nullptr;
   for (const Reconstruction& model : chain_models) {
     if (std::all_of(skeleton_images.begin(), skeleton_images.end(),
                     [&](ImageId id) { return model.images.count(id) > 0; })) {

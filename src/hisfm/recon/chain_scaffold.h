@@ -19,7 +19,8 @@
 namespace hisfm {
 
 /// The first of `chain_models` that registers every image of
-/// `skeleton_images`, or null when none does or when the pass kept loop
+/// `skeleton_images`, or null when none does, the skeleton is empty, or the
+/// pass kept loop
 /// closures (`num_loop_closures` > 0): a chain whose loop closures failed
 /// the transfer test drifted past it, and a re-triangulation with its poses
 /// fixed cannot bring the loop's ends together.

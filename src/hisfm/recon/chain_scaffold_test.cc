@@ -36,6 +36,7 @@ TEST(ChainModelForScaffold, TheFirstModelHoldingTheWholeSkeleton) {
   EXPECT_EQ(ChainModelForScaffold({3, 4}, chain, 0), nullptr);
   EXPECT_EQ(ChainModelForScaffold({1, 9}, chain, 0), nullptr);
   EXPECT_EQ(ChainModelForScaffold({1}, {}, 0), nullptr);
+  EXPECT_EQ(ChainModelForScaffold({}, chain, 0), nullptr);
   // So is any skeleton after the pass kept loop closures.
   EXPECT_EQ(ChainModelForScaffold({4, 6}, chain, 2), nullptr);
 }

@@ -144,10 +144,12 @@ struct LoadedInput {
 // inliers that agree with the geometry the builtin edge test accepts for it.
 // The plug-in's verdicts stand: the builtin's score is not used. `scorer`
 // remembers its scores in `scores` (MemoScorer): the pairs it grows by are
-// the ones the plug-in was asked about here.
+// the ones the plug-in was asked about here. The pairs of `pre_verified`
+// (trust_sequence_checks) keep their inliers.
 void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
                        const PairScores& scores,
                        const HierarchicalMapperOptions& options,
+                       const std::set<ImagePair>& pre_verified,
                        LoadedInput* in) {
   const VerifiedHierarchyOptions& o = options.verifier.verified_hierarchy;
   const size_t known = scores.size();
@@ -159,8 +161,13 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
   size_t after = 0;
   if (options.verifier.clean_plugin_inliers) {
     MultiViewVerifier geometry(db, in->graph, options.verifier.multiview);
-    std::vector<ImagePair> used = in->hierarchy.Edges();
-    for (const ViewGraphEdge& e : in->reserve_edges) used.push_back(e.pair);
+    std::vector<ImagePair> used;
+    for (const ImagePair& p : in->hierarchy.Edges()) {
+      if (!pre_verified.count(p)) used.push_back(p);
+    }
+    for (const ViewGraphEdge& e : in->reserve_edges) {
+      if (!pre_verified.count(e.pair)) used.push_back(e.pair);
+    }
     CleanInliers(used, geometry, &in->inliers, &before, &after);
   }
   in->verification["support_edges_judged"] = num_judged;
@@ -179,9 +186,11 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
 
 // The pairs of `graph` (the cleaned database's) whose two images one of the
 // sequence pass's chain models registers: the pass's transfer test judged
-// each of them, and those left in the cleaned database agree with the chain.
-// The trusted edges the hierarchy's verifier rejected (`rejected`) are left
-// out: two judges, and either one's rejection stands.
+// each of them, and those left in the cleaned database agree with the chain
+// or are loop closures the pass kept by their conflict with the unique
+// points. The trusted edges the hierarchy's verifier rejected (`rejected`)
+// are left out: when it judged them (trust_sequence_checks off), either
+// judge's rejection stands.
 std::vector<ImagePair> SequenceCheckedPairs(
     const ViewGraph& graph, const std::vector<Reconstruction>& chain_models,
     const std::vector<RejectedTrustedEdge>& rejected) {
@@ -342,7 +351,7 @@ LoadedInput LoadAndBuildHierarchy(
     }
     if (options.verifier.IsPlugIn()) {
       MemoScorer memo(make_scorer(in.hierarchy.communities), &scores);
-      AddPlugInGeometry(db, memo, scores, options, &in);
+      AddPlugInGeometry(db, memo, scores, options, pre_verified, &in);
     }
     num_pre_verified = answered.size();
   }
@@ -697,10 +706,14 @@ std::string RefineSegment(const ComponentRun& run,
   fs::remove_all(refined, ec);
   const std::string database = refined + ".db";
   const std::vector<ImagePair> pairs = SegmentRefinementPairs(comp, in, models);
+  // Seconds spent writing the database (-1 until it is written): the rest
+  // is the refinement's, failed or not.
+  double filtered = -1;
   try {
     WriteFilteredDatabase(run.database_path, database, pairs,
                           ComponentDatabaseOptions(in));
-    times->filter_databases += timer.ElapsedSeconds();
+    filtered = timer.ElapsedSeconds();
+    times->filter_databases += filtered;
     double triangulation = 0, adjustment = 0;
     for (const std::string& folder : folders) {
       const std::string name = fs::path(folder).filename().string();
@@ -744,6 +757,11 @@ std::string RefineSegment(const ComponentRun& run,
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
+    if (filtered < 0) {
+      times->filter_databases += timer.ElapsedSeconds();
+    } else {
+      times->retriangulation += timer.ElapsedSeconds() - filtered;
+    }
     HISFM_LOG_WARN("scaffold segment refinement: {}; keeping it unrefined",
                    e.what());
     return output;
@@ -752,7 +770,8 @@ std::string RefineSegment(const ComponentRun& run,
 
 // scaffold_from_sequence_chain: the sequence pass's chain model that can be
 // the component's scaffold (ChainModelForScaffold), or null when the option
-// is off or nothing could refine it (no checked pair).
+// is off, refine_with_sequence_pairs is off, or nothing could refine it (no
+// checked pair).
 const Reconstruction* ChainHoldingSkeleton(
     const HierarchyComponent& comp, const LoadedInput& in,
     const HierarchicalMapperOptions& options) {
@@ -784,7 +803,9 @@ void WriteChainSegment(const Reconstruction& chain,
   WriteModelBinary(model, output + "/0");
 }
 
-// Incremental SfM on the skeleton only (paper, Sec. III-D). A skeleton of
+// Incremental SfM on the skeleton only (paper, Sec. III-D), or, after the
+// sequence pass, its chain model in the skeleton's segments, refined
+// (ChainHoldingSkeleton). A skeleton of
 // more than options.scaffold_segment_images images (with merge_sub_models)
 // is reconstructed in
 // overlapping segments (graph/graph_segments.h), one colmap run each, whose
@@ -814,7 +835,6 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
                                         : std::string()));
   ScaffoldOutcome outcome;
   outcome.num_segments = segments.size();
-  outcome.from_chain = chain != nullptr;
   Timer timer;
   // The segments' refinements are timed as stages of their own.
   const double refined_before =
@@ -863,6 +883,7 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
                                 &outcome.unmerged);
     outcome.model.converged =
         !outcome.model.empty() && num_refined == segments.size();
+    outcome.from_chain = chain != nullptr && !outcome.model.empty();
   } catch (const Interrupted&) {
     throw;
   } catch (const Error& e) {
@@ -874,7 +895,8 @@ ScaffoldOutcome ReconstructScaffold(const ComponentRun& run,
   if (outcome.model.empty()) {
     outcome.fallback = true;
     HISFM_LOG_WARN(
-        "scaffold: colmap could not start a model on the {} skeletal images; "
+        "scaffold: no model of the {} skeletal images (colmap could not "
+        "start one, or the chain's segments could not be written); "
         "reconstructing the component from its whole hierarchy instead",
         comp.skeleton_images.size());
     return outcome;

@@ -127,8 +127,10 @@ struct HierarchicalMapperOptions {
   bool refine_with_sequence_pairs = true;
   /// When the sequence pass cleaned the database, the pairs its transfer
   /// test kept between images of one chain model (or kept as that model's
-  /// loop closures) are taken as verified: the hierarchy does not ask the
-  /// verifier about them (no score, no rejection, no inlier cleaning). The
+  /// loop closures, by their conflict with its unique points) are taken as
+  /// verified: the hierarchy does not ask the verifier about them (score 1,
+  /// no rejection by score, no inlier cleaning; the skeleton's cycle check,
+  /// SkeletonOptions, still applies to them as bridges). The
   /// pass tested each of them, match by match, against a multi-view model
   /// of the sequence, which two views cannot give; only the pairs it could
   /// not test (an image outside its models) are verified as Algorithm 1

@@ -106,7 +106,8 @@ void CleanInliers(
 /// trusted_edges.threshold, except those trusted_keep_rank keeps; see the
 /// file comment). The pairs of `pre_verified` (if given; pairs a stronger
 /// test accepted, PreVerifiedScorer) are not asked of `verifier`: they
-/// score 1, are never rejected and keep their inliers uncleaned.
+/// score 1, are not rejected by a score (the skeleton's cycle check still
+/// applies to bridges) and keep their inliers uncleaned.
 VerifiedHierarchy BuildVerifiedHierarchy(
     const ViewGraph& graph, MultiViewVerifier& verifier,
     const HierarchyOptions& hierarchy_options,
