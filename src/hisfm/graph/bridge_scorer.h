@@ -116,7 +116,7 @@ class MemoScorer : public BorrowedScorer {
 
 /// Forwards to a scorer, except for the pairs another test has already
 /// accepted (the sequence pass's transfer test against a multi-view model,
-/// or its loop closures found by conflict, recon/sequence_pass.h): those
+/// recon/sequence_pass.h): those
 /// score 1 and keep every inlier
 /// (ConsistentShare 1) without a call to the scorer. The pairs answered so
 /// far are added to a set the caller owns, so that several of these

@@ -215,7 +215,8 @@ std::vector<ImagePair> SequenceCheckedPairs(
 LoadedInput LoadAndBuildHierarchy(
     const std::string& database_path, const std::string& image_path,
     const HierarchicalMapperOptions& options,
-    const std::vector<Reconstruction>& chain_models = {}) {
+    const std::vector<Reconstruction>& chain_models = {},
+    const std::vector<ImagePair>& loop_closures = {}) {
   LoadedInput in;
   Timer timer;
   in.database = std::make_unique<Database>(database_path);
@@ -255,13 +256,16 @@ LoadedInput LoadAndBuildHierarchy(
   ThrowIfInterrupted();
   LogHeading("Building the hierarchy");
   const Database& db = *in.database;
-  // The pairs the sequence pass's transfer test kept (trust_sequence_checks).
+  // The pairs the sequence pass's transfer test kept (trust_sequence_checks;
+  // not its loop closures, which failed that test and keep their input
+  // matches: the verifier judges and cleans them).
   std::set<ImagePair> pre_verified;
   if (options.trust_sequence_checks) {
     for (const ImagePair& p :
          SequenceCheckedPairs(in.graph, chain_models, {})) {
       pre_verified.insert(p);
     }
+    for (const ImagePair& p : loop_closures) pre_verified.erase(p);
   }
   std::set<ImagePair> answered;
   size_t num_pre_verified = 0;
@@ -1522,8 +1526,9 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
   const std::string database_path =
       pass.ran ? pass.cleaned_database_path : paths.database_path;
   ThrowIfInterrupted();
-  LoadedInput in = LoadAndBuildHierarchy(database_path, paths.image_path,
-                                         options, pass.chain_models);
+  LoadedInput in =
+      LoadAndBuildHierarchy(database_path, paths.image_path, options,
+                            pass.chain_models, pass.loop_closures);
   in.sequence_seconds = pass.seconds;
   // The summary counts the input's pairs, not the cleaned copy's.
   if (pass.ran) {

@@ -409,6 +409,7 @@ bool CleanPairs(const Database& database, const std::string& database_path,
       removed.erase(p);
       result->num_matches_removed -= graph.Weight(p.image_id1, p.image_id2);
       ++result->num_loop_closures;
+      result->loop_closures.push_back(p);
     }
   }
   result->num_removed = removed.size();

@@ -161,8 +161,9 @@ struct SequencePassResult {
   /// Of those, the models joined by conflict (join_by_conflict).
   size_t num_joined_by_conflict = 0;
   /// Pairs the transfer test rejected and kept as loop closures
-  /// (close_loops_by_conflict).
+  /// (close_loops_by_conflict), with their input matches.
   size_t num_loop_closures = 0;
+  std::vector<ImagePair> loop_closures;
   /// Images the chain's models registered.
   size_t num_registered = 0;
   /// Pairs with both images in one chain model, those removed (they

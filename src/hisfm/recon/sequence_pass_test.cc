@@ -428,6 +428,7 @@ TEST(SequencePass, ADriftedLoopKeepsTheClosureOfLeastConflict) {
   ASSERT_TRUE(closed.ran) << closed.note;
   EXPECT_EQ(closed.num_joined, 0u);
   EXPECT_EQ(closed.num_loop_closures, 1u);
+  EXPECT_EQ(closed.loop_closures, (std::vector<ImagePair>{ImagePair(4, 5)}));
   EXPECT_EQ(closed.ToJson()["loop_closures_kept"], 1u);
   const ViewGraph cleaned =
       ReadViewGraph(Database(closed.cleaned_database_path), 1);
@@ -442,6 +443,7 @@ TEST(SequencePass, ADriftedLoopKeepsTheClosureOfLeastConflict) {
       RunOnDriftedLoop(pass, SmallDrift(), off, "open");
   ASSERT_TRUE(open.ran) << open.note;
   EXPECT_EQ(open.num_loop_closures, 0u);
+  EXPECT_TRUE(open.loop_closures.empty());
   EXPECT_EQ(ReadViewGraph(Database(open.cleaned_database_path), 1)
                 .Weight(4, 5),
             0u);
