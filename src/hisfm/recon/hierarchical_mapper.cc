@@ -257,10 +257,11 @@ LoadedInput LoadAndBuildHierarchy(
   LogHeading("Building the hierarchy");
   const Database& db = *in.database;
   // The pairs the sequence pass's transfer test kept (trust_sequence_checks;
-  // not its loop closures, which failed that test and keep their input
-  // matches: the verifier judges and cleans them).
+  // none when it kept loop closures: its chain drifted past the test, whose
+  // agreement is then no proof; never the closures themselves, which failed
+  // it and keep their input matches).
   std::set<ImagePair> pre_verified;
-  if (options.trust_sequence_checks) {
+  if (options.trust_sequence_checks && loop_closures.empty()) {
     for (const ImagePair& p :
          SequenceCheckedPairs(in.graph, chain_models, {})) {
       pre_verified.insert(p);

@@ -125,12 +125,14 @@ struct HierarchicalMapperOptions {
   /// attach run's global adjustment follows). Without the pass no pair
   /// outside the hierarchy was checked, and the step is skipped.
   bool refine_with_sequence_pairs = true;
-  /// When the sequence pass cleaned the database, the pairs its transfer
-  /// test kept between images of one chain model are taken as verified (not
-  /// the loop closures it kept: they failed the test and keep their input
-  /// matches, doppelganger matches among them, so the verifier judges and
-  /// cleans them; on block_loop_1000_s2, held-out, trusting its 11 closures
-  /// too left the loop bent, 67.4% of pairs within 5 degrees): the
+  /// When the sequence pass cleaned the database and kept no loop closure,
+  /// the pairs its transfer test kept between images of one chain model are
+  /// taken as verified. A pass that kept closures had a chain that drifted
+  /// past its own test, and its agreement proves less: on
+  /// block_loop_1000_s2 (held-out, 11 closures) trusting its pairs left the
+  /// loop bent, 67.3% of pairs within 5 degrees with or without the
+  /// closures themselves, against 99.1% with the verifier
+  /// (docs/decisions.md, twenty-eighth session). The
   /// hierarchy does not ask the verifier about them (score 1,
   /// no rejection by score, no inlier cleaning; the skeleton's cycle check,
   /// SkeletonOptions, still applies to them as bridges). The
