@@ -116,11 +116,10 @@ class MemoScorer : public BorrowedScorer {
 
 /// Forwards to a scorer, except for the pairs another test has already
 /// accepted (the sequence pass's transfer test against a multi-view model,
-/// recon/sequence_pass.h): those
-/// score 1 and keep every inlier
+/// recon/sequence_pass.h): those score 1 and keep every inlier
 /// (ConsistentShare 1) without a call to the scorer. The pairs answered so
-/// far are added to a set the caller owns, so that several of these
-/// scorers (one per build of the hierarchy) count them once.
+/// far are added to a set the caller owns, so that several of these scorers
+/// (one per build of the hierarchy) count them once.
 class PreVerifiedScorer : public BorrowedScorer {
  public:
   /// `scorer` is shared and must be non-null; `accepted` and `answered`

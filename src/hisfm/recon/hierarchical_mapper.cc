@@ -161,14 +161,9 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
   size_t after = 0;
   if (options.verifier.clean_plugin_inliers) {
     MultiViewVerifier geometry(db, in->graph, options.verifier.multiview);
-    std::vector<ImagePair> used;
-    for (const ImagePair& p : in->hierarchy.Edges()) {
-      if (!pre_verified.count(p)) used.push_back(p);
-    }
-    for (const ViewGraphEdge& e : in->reserve_edges) {
-      if (!pre_verified.count(e.pair)) used.push_back(e.pair);
-    }
-    CleanInliers(used, geometry, &in->inliers, &before, &after);
+    std::vector<ImagePair> used = in->hierarchy.Edges();
+    for (const ViewGraphEdge& e : in->reserve_edges) used.push_back(e.pair);
+    CleanInliers(used, geometry, &in->inliers, &before, &after, &pre_verified);
   }
   in->verification["support_edges_judged"] = num_judged;
   in->verification["support_edges_scored"] = num_asked;

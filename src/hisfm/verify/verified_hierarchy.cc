@@ -123,26 +123,23 @@ VerifiedHierarchy BuildVerifiedHierarchy(
                   options.support_threshold, &out.hierarchy, &out.reserve_edges,
                   hierarchy_options.skeleton.verify_threshold);
   if (options.clean_inliers) {
-    std::vector<ImagePair> used;
-    for (const ImagePair& p : out.hierarchy.Edges()) {
-      if (!accepted.count(p)) used.push_back(p);
-    }
-    for (const ViewGraphEdge& e : out.reserve_edges) {
-      if (!accepted.count(e.pair)) used.push_back(e.pair);
-    }
+    std::vector<ImagePair> used = out.hierarchy.Edges();
+    for (const ViewGraphEdge& e : out.reserve_edges) used.push_back(e.pair);
     CleanInliers(used, verifier, &out.inliers, &out.num_inliers_before,
-                 &out.num_inliers_after);
+                 &out.num_inliers_after, &accepted);
   }
   out.num_pre_verified = answered.size();
   return out;
 }
 
-void CleanInliers(
-    const std::vector<ImagePair>& pairs, MultiViewVerifier& verifier,
-    std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>*
-        inliers,
-    size_t* before, size_t* after) {
+void CleanInliers(const std::vector<ImagePair>& pairs,
+                  MultiViewVerifier& verifier,
+                  std::unordered_map<ImagePair, std::vector<FeatureMatch>,
+                                     ImagePairHash>* inliers,
+                  size_t* before, size_t* after,
+                  const std::set<ImagePair>* skip) {
   for (const ImagePair& pair : pairs) {
+    if (skip && skip->count(pair)) continue;
     std::vector<FeatureMatch> kept = verifier.ConsistentInliers(pair);
     *before +=
         verifier.cache().Pair(pair.image_id1, pair.image_id2)->matches.size();

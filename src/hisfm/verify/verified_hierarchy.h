@@ -94,12 +94,14 @@ size_t AddSupportEdges(const ViewGraph& graph, BridgeScorer& verifier,
 /// The inliers of each pair of `pairs` that agree with the geometry the
 /// builtin edge test accepts for it (MultiViewVerifier::ConsistentInliers),
 /// by pair, in `inliers`; adds the counts before and after to `before` and
-/// `after`. A pair the test cannot judge keeps all its inliers.
-void CleanInliers(
-    const std::vector<ImagePair>& pairs, MultiViewVerifier& verifier,
-    std::unordered_map<ImagePair, std::vector<FeatureMatch>, ImagePairHash>*
-        inliers,
-    size_t* before, size_t* after);
+/// `after`. A pair the test cannot judge keeps all its inliers, and the
+/// pairs of `skip` (if given; pre-verified ones) are left out.
+void CleanInliers(const std::vector<ImagePair>& pairs,
+                  MultiViewVerifier& verifier,
+                  std::unordered_map<ImagePair, std::vector<FeatureMatch>,
+                                     ImagePairHash>* inliers,
+                  size_t* before, size_t* after,
+                  const std::set<ImagePair>* skip = nullptr);
 
 /// Builds the hierarchy of `graph` with `verifier` scoring bridges (against
 /// the skeleton's verify_threshold) and trusted edges (against
