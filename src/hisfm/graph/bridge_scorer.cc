@@ -69,4 +69,11 @@ std::vector<double> PreVerifiedScorer::ConsistentShares(
   });
 }
 
+size_t NumAskedOfScorer(const PairScores& scores,
+                        const std::set<ImagePair>& accepted) {
+  size_t n = 0;
+  for (const auto& [pair, score] : scores) n += !accepted.count(pair);
+  return n;
+}
+
 }  // namespace hisfm

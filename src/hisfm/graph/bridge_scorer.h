@@ -149,6 +149,12 @@ class PreVerifiedScorer : public BorrowedScorer {
   std::set<ImagePair>* answered_;
 };
 
+/// How many pairs of `scores` (a MemoScorer's, over a PreVerifiedScorer with
+/// `accepted`) the scorer behind them was asked about: those not accepted,
+/// which the PreVerifiedScorer answers itself.
+size_t NumAskedOfScorer(const PairScores& scores,
+                        const std::set<ImagePair>& accepted);
+
 /// The default of the foundation: accepts every bridge with score 1.
 class AcceptAllScorer : public BridgeScorer {
  public:

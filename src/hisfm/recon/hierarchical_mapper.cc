@@ -152,11 +152,11 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
                        const std::set<ImagePair>& pre_verified,
                        LoadedInput* in) {
   const VerifiedHierarchyOptions& o = options.verifier.verified_hierarchy;
-  const size_t known = scores.size();
+  const size_t known = NumAskedOfScorer(scores, pre_verified);
   const size_t num_judged = AddSupportEdges(
       in->graph, scorer, o.support_edges, o.support_threshold, &in->hierarchy,
       &in->reserve_edges, options.hierarchy.skeleton.verify_threshold);
-  const size_t num_asked = scores.size() - known;
+  const size_t num_asked = NumAskedOfScorer(scores, pre_verified) - known;
   size_t before = 0;
   size_t after = 0;
   if (options.verifier.clean_plugin_inliers) {
@@ -167,7 +167,7 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
   }
   in->verification["support_edges_judged"] = num_judged;
   in->verification["support_edges_scored"] = num_asked;
-  in->verification["pairs_scored"] = scores.size();
+  in->verification["pairs_scored"] = NumAskedOfScorer(scores, pre_verified);
   in->verification["support_edges"] = in->hierarchy.support_edges.size();
   in->verification["reserve_edges"] = in->reserve_edges.size();
   in->verification["inliers_before_cleaning"] = before;
@@ -253,15 +253,14 @@ LoadedInput LoadAndBuildHierarchy(
   const Database& db = *in.database;
   // The pairs the sequence pass's transfer test kept (trust_sequence_checks;
   // none when it kept loop closures: its chain drifted past the test, whose
-  // agreement is then no proof; never the closures themselves, which failed
-  // it and keep their input matches).
+  // agreement is then no proof). The verification summary's "pairs_scored"
+  // counts the pairs asked of the verifier, not these.
   std::set<ImagePair> pre_verified;
   if (options.trust_sequence_checks && loop_closures.empty()) {
     for (const ImagePair& p :
          SequenceCheckedPairs(in.graph, chain_models, {})) {
       pre_verified.insert(p);
     }
-    for (const ImagePair& p : loop_closures) pre_verified.erase(p);
   }
   std::set<ImagePair> answered;
   size_t num_pre_verified = 0;
@@ -326,16 +325,17 @@ LoadedInput LoadAndBuildHierarchy(
           in.graph, make_scorer, options.hierarchy,
           options.verifier.verified_hierarchy.trusted_edges);
       in.hierarchy = std::move(judged.hierarchy);
-      in.verification = {{"rounds", judged.rounds},
-                      {"rejected_trusted_edges", judged.rejected.size()},
-                      {"unresolved_trusted_edges", judged.num_unresolved},
-                      {"trusted_edges_scored", judged.num_scored},
-                      {"pairs_scored", judged.scores.size()}};
+      in.verification = {
+          {"rounds", judged.rounds},
+          {"rejected_trusted_edges", judged.rejected.size()},
+          {"unresolved_trusted_edges", judged.num_unresolved},
+          {"trusted_edges_scored", judged.num_scored},
+          {"pairs_scored", NumAskedOfScorer(judged.scores, pre_verified)}};
       HISFM_LOG_INFO(
           "trusted edges: {} scored, {} rejected in {} round(s); {} pairs "
           "scored in all",
           judged.num_scored, judged.rejected.size(), judged.rounds,
-          judged.scores.size());
+          NumAskedOfScorer(judged.scores, pre_verified));
       scores = std::move(judged.scores);
       in.rejected_trusted_edges = std::move(judged.rejected);
     } else {
@@ -347,7 +347,8 @@ LoadedInput LoadAndBuildHierarchy(
             return std::make_unique<MemoScorer>(std::move(made), &scores);
           },
           options.hierarchy);
-      in.verification = {{"pairs_scored", scores.size()}};
+      in.verification = {
+          {"pairs_scored", NumAskedOfScorer(scores, pre_verified)}};
     }
     if (options.verifier.IsPlugIn()) {
       MemoScorer memo(make_scorer(in.hierarchy.communities), &scores);
@@ -1490,18 +1491,21 @@ nlohmann::json RunHierarchicalMapper(const MapperPaths& paths,
 
   AtomicDirectory output(output_path);
   // The sequence pass's chain: this mapper without the pass, its work kept
-  // under work/sequence.
+  // under work/sequence, in folders named after each segment's database
+  // (chain_3.db: chain_3_model, chain_3_work), as segments run side by side.
   const std::string sequence_work = work + "/sequence";
   const ChainReconstructor reconstruct_chain =
       [&](const std::string& chain_db) {
         HierarchicalMapperOptions chain_options = options;
         chain_options.sequence.sequence.mode = "off";
         chain_options.attach_refine_focal_length = false;
+        const std::string stem =
+            (fs::path(sequence_work) / fs::path(chain_db).stem()).string();
         MapperPaths chain_paths;
         chain_paths.database_path = chain_db;
         chain_paths.image_path = paths.image_path;
-        chain_paths.output_path = sequence_work + "/chain_model";
-        chain_paths.work_path = sequence_work + "/chain_work";
+        chain_paths.output_path = stem + "_model";
+        chain_paths.work_path = stem + "_work";
         std::error_code remove_ec;
         fs::remove_all(chain_paths.output_path, remove_ec);
         fs::remove_all(chain_paths.work_path, remove_ec);
