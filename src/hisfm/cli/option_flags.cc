@@ -49,6 +49,9 @@ void ForEachMapperFlag(HierarchicalMapperOptions* o, Visit&& visit) {
         "images, merged through their shared images (0 = one run)");
   visit("--HiSfM.sequence_chain_segment_overlap", seq.chain_segment_overlap,
         "Images consecutive chain segments share");
+  visit("--HiSfM.sequence_chain_segment_parallel_runs",
+        seq.chain_segment_parallel_runs,
+        "Chain segments reconstructed side by side (1 = one after another)");
   visit("--HiSfM.sequence_require_one_model", seq.require_one_model,
         "Clean the pairs only when the chain's pieces join into one model");
   visit("--HiSfM.sequence_near_join_window", seq.near_join_window,

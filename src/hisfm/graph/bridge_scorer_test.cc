@@ -95,6 +95,22 @@ TEST(PreVerifiedScorer, AnswersAcceptedPairsWithoutAskingTheScorer) {
   EXPECT_THROW(scorer.Score({ImagePair(1, 2), ImagePair(5, 6)}), Error);
 }
 
+TEST(NumAskedOfScorer, CountsThePairsTheScorerBehindWasAsked) {
+  auto counting = std::make_shared<BatchCountingScorer>();
+  const std::set<ImagePair> accepted = {ImagePair(2, 3), ImagePair(7, 8)};
+  std::set<ImagePair> answered;
+  PairScores scores;
+  MemoScorer memo(
+      std::make_shared<PreVerifiedScorer>(counting, &accepted, &answered),
+      &scores);
+  memo.Score({ImagePair(1, 2), ImagePair(2, 3), ImagePair(5, 6)});
+  memo.Score({ImagePair(7, 8), ImagePair(1, 2), ImagePair(4, 9)});
+  EXPECT_EQ(scores.size(), 5u);
+  EXPECT_EQ(counting->calls.size(), 3u);
+  EXPECT_EQ(NumAskedOfScorer(scores, accepted), counting->calls.size());
+  EXPECT_EQ(NumAskedOfScorer(scores, {}), scores.size());
+}
+
 TEST(MemoScorer, AsksEachPairOnceWhileTheScoresLive) {
   auto counting = std::make_shared<CountingScorer>();
   PairScores scores;

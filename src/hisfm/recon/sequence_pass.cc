@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <mutex>
 #include <set>
 #include <unordered_map>
 #include <unordered_set>
@@ -10,6 +11,7 @@
 #include "hisfm/util/error.h"
 #include "hisfm/util/interrupt.h"
 #include "hisfm/util/logging.h"
+#include "hisfm/util/parallel.h"
 #include "hisfm/util/string_util.h"
 #include "hisfm/util/timer.h"
 #include "hisfm/verify/unique_points.h"
@@ -29,6 +31,8 @@ void SequencePassOptions::Check() const {
                          (chain_segment_overlap >= 1 &&
                           chain_segment_overlap < chain_segment_images),
                      "in [1, chain_segment_images)");
+  HISFM_CHECK_OPTION(chain_segment_parallel_runs,
+                     chain_segment_parallel_runs >= 1, ">= 1");
   sequence.Check();
   segment_merge.Check();
   agreement.Check();
@@ -296,10 +300,12 @@ std::vector<ImagePair> LoopClosures(const Database& database,
   return closures;
 }
 
-// The chain's models: its segments (ChainSegments) reconstructed one by
-// one, their models merged through the images they share, the largest
-// first, then the others without the images of those before them. Throws
-// hisfm::Error when every segment's reconstruction throws.
+// The chain's models: its segments (ChainSegments) reconstructed
+// (chain_segment_parallel_runs at a time, each from a database of its links
+// alone, removed after its run), their models merged through the images they
+// share, the largest first, then the others without the images of those
+// before them. Throws hisfm::Error when every segment's reconstruction
+// throws.
 std::vector<Reconstruction> ReconstructChain(
     const std::string& database_path, const SequenceChain& chain,
     const std::string& work_path, const ChainReconstructor& reconstruct,
@@ -308,35 +314,49 @@ std::vector<Reconstruction> ReconstructChain(
       ChainSegments(chain, static_cast<size_t>(options.chain_segment_images),
                     static_cast<size_t>(options.chain_segment_overlap));
   result->num_segments = segments.size();
-  const std::string chain_db = work_path + "/chain.db";
+  std::vector<std::vector<Reconstruction>> segment_models(segments.size());
+  std::vector<std::string> errors(segments.size());
+  std::mutex copy_mutex;
+  ParallelFor(
+      segments.size(), options.chain_segment_parallel_runs, [&](size_t j) {
+        ThrowIfInterrupted();
+        if (segments.size() > 1) {
+          HISFM_LOG_INFO(
+              "sequence: chain segment {}/{}: {} links (the run "
+              "sees the other images of the chain as isolated)",
+              j + 1, segments.size(), segments[j].size());
+        }
+        const std::string chain_db = StrCat(work_path, "/chain_", j, ".db");
+        std::error_code ec;
+        fs::remove(chain_db, ec);
+        {
+          std::lock_guard<std::mutex> lock(copy_mutex);
+          WriteFilteredDatabase(database_path, chain_db, segments[j]);
+        }
+        try {
+          segment_models[j] = reconstruct(chain_db);
+        } catch (const Interrupted&) {
+          throw;
+        } catch (const Error& e) {
+          errors[j] = e.what();
+        }
+        fs::remove(chain_db, ec);
+      });
   std::vector<Reconstruction> models;
   std::string last_error;
   bool any_reconstructed = false;
   for (size_t j = 0; j < segments.size(); ++j) {
-    if (segments.size() > 1) {
-      HISFM_LOG_INFO(
-          "sequence: chain segment {}/{}: {} links (the run below sees the "
-          "other images of the chain as isolated)",
-          j + 1, segments.size(), segments[j].size());
-    }
-    std::error_code ec;
-    fs::remove(chain_db, ec);
-    WriteFilteredDatabase(database_path, chain_db, segments[j]);
-    try {
-      for (Reconstruction& m : reconstruct(chain_db)) {
-        models.push_back(std::move(m));
-      }
-      any_reconstructed = true;
-    } catch (const Interrupted&) {
-      throw;
-    } catch (const Error& e) {
+    if (!errors[j].empty()) {
       // The other segments may still join around it.
       if (segments.size() > 1) {
         HISFM_LOG_WARN("sequence: chain segment {}/{} gave no model ({})",
-                       j + 1, segments.size(), e.what());
+                       j + 1, segments.size(), errors[j]);
       }
-      last_error = e.what();
+      last_error = errors[j];
+      continue;
     }
+    any_reconstructed = true;
+    for (Reconstruction& m : segment_models[j]) models.push_back(std::move(m));
   }
   ThrowUnless(any_reconstructed || segments.empty(), last_error);
   if (segments.size() <= 1 || models.empty()) return models;

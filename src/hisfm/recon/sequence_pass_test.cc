@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdio>
+#include <filesystem>
+#include <mutex>
 #include <random>
 #include <set>
 
@@ -16,6 +19,8 @@
 
 namespace hisfm {
 namespace {
+
+namespace fs = std::filesystem;
 
 constexpr int kNumImages = 30;
 
@@ -509,7 +514,12 @@ TEST(SequencePass, ALongChainIsReconstructedInSegmentsThatMerge) {
   options.chain_segment_images = 5;
   options.chain_segment_overlap = 2;
   const Reconstruction truth = OneChainModel(pass.streets);
+  // The segments run side by side (chain_segment_parallel_runs, 2 by
+  // default), each on a database of its own.
+  ASSERT_EQ(options.chain_segment_parallel_runs, 2);
+  std::mutex mutex;
   std::vector<std::set<ImageId>> calls;
+  std::set<std::string> databases;
   const ChainReconstructor segments = [&](const std::string& chain_db) {
     std::set<ImageId> images;
     for (const ImagePair& p : ReadViewGraph(Database(chain_db), 1).Pairs()) {
@@ -521,18 +531,26 @@ TEST(SequencePass, ALongChainIsReconstructedInSegmentsThatMerge) {
     }
     Reconstruction model = truth;
     RemoveImages(others, &model);
-    calls.push_back(images);
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      calls.push_back(images);
+      databases.insert(chain_db);
+    }
     // Each run's model stands in a frame of its own.
     return std::vector<Reconstruction>{
-        InFrame(model, calls.size() == 1 ? Sim3d() : SecondFromWorld())};
+        InFrame(model, images.count(1) ? Sim3d() : SecondFromWorld())};
   };
   const SequencePassResult result = RunSequencePass(
       pass.tmp / "database.db", 1, pass.tmp / "segments", segments, options);
   ASSERT_TRUE(result.ran) << result.note;
-  // 8 images in segments of at most 5 sharing 2: images 1-5 and 4-8.
+  // 8 images in segments of at most 5 sharing 2: images 1-5 and 4-8, each
+  // run on a database of its own, removed after it.
   ASSERT_EQ(calls.size(), 2u);
+  std::sort(calls.begin(), calls.end());
   EXPECT_EQ(calls[0], (std::set<ImageId>{1, 2, 3, 4, 5}));
   EXPECT_EQ(calls[1], (std::set<ImageId>{4, 5, 6, 7, 8}));
+  EXPECT_EQ(databases.size(), 2u);
+  for (const std::string& db : databases) EXPECT_FALSE(fs::exists(db)) << db;
   EXPECT_EQ(result.num_segments, 2u);
   EXPECT_EQ(result.ToJson()["segments"], 2u);
   EXPECT_EQ(result.num_models, 1u);
@@ -552,6 +570,20 @@ TEST(SequencePass, ALongChainIsReconstructedInSegmentsThatMerge) {
   EXPECT_EQ(calls[0].size(), 8u);
   EXPECT_EQ(whole.num_segments, 1u);
   EXPECT_EQ(whole.num_removed, result.num_removed);
+
+  // One after another: the same chain and the same verdicts.
+  calls.clear();
+  options.chain_segment_images = 5;
+  options.chain_segment_parallel_runs = 1;
+  const SequencePassResult serial = RunSequencePass(
+      pass.tmp / "database.db", 1, pass.tmp / "serial", segments, options);
+  ASSERT_TRUE(serial.ran) << serial.note;
+  EXPECT_EQ(calls.size(), 2u);
+  EXPECT_EQ(serial.num_models, 1u);
+  EXPECT_EQ(serial.num_removed, result.num_removed);
+  EXPECT_EQ(serial.num_registered, result.num_registered);
+  options.chain_segment_parallel_runs = 0;
+  EXPECT_THROW(options.Check(), Error);
 }
 
 // A segment whose run fails leaves the others: their models are still the
@@ -563,9 +595,13 @@ TEST(SequencePass, AFailingSegmentLeavesTheOthers) {
   options.chain_segment_overlap = 2;
   options.require_one_model = false;
   const Reconstruction truth = OneChainModel(pass.streets);
-  int calls = 0;
-  const ChainReconstructor second_fails = [&](const std::string&) {
-    if (++calls == 2) throw Error("no good initial image pair");
+  std::atomic<int> calls{0};
+  // The segment of images 4-8 fails (the segments run side by side).
+  const ChainReconstructor second_fails = [&](const std::string& chain_db) {
+    ++calls;
+    if (ReadViewGraph(Database(chain_db), 1).Weight(7, 8) > 0) {
+      throw Error("no good initial image pair");
+    }
     Reconstruction model = truth;
     RemoveImages({6, 7, 8}, &model);
     return std::vector<Reconstruction>{model};
@@ -573,7 +609,7 @@ TEST(SequencePass, AFailingSegmentLeavesTheOthers) {
   const SequencePassResult result = RunSequencePass(
       pass.tmp / "database.db", 1, pass.tmp / "one", second_fails, options);
   ASSERT_TRUE(result.ran) << result.note;
-  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(calls.load(), 2);
   EXPECT_EQ(result.num_registered, 5u);
 
   calls = 0;
@@ -584,7 +620,7 @@ TEST(SequencePass, AFailingSegmentLeavesTheOthers) {
   };
   const SequencePassResult none = RunSequencePass(
       pass.tmp / "database.db", 1, pass.tmp / "none", failing, options);
-  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(calls.load(), 2);
   EXPECT_FALSE(none.ran);
   EXPECT_NE(none.note.find("no good initial image pair"), std::string::npos)
       << none.note;

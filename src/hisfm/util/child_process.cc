@@ -186,13 +186,13 @@ int RunChildProcess(const std::vector<std::string>& argv,
     *start_error = exec_error;
     return -1;
   }
-  SetInterruptibleChild(-pid);
+  AddInterruptibleChild(-pid);
   // Waits without reaping: until the watchdog has killed what is left of
   // the group, its id stays the child's.
   siginfo_t info;
   while (waitid(P_PID, pid, &info, WEXITED | WNOWAIT) < 0 && errno == EINTR) {
   }
-  SetInterruptibleChild(0);
+  RemoveInterruptibleChild(-pid);
   close(watch_pipe[1]);
   if (watchdog > 0) Reap(watchdog);
   const int status = Reap(pid);

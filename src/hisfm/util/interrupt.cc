@@ -14,7 +14,11 @@ constexpr int kSignals[] = {SIGINT, SIGTERM, SIGHUP};
 constexpr int kNumSignals = sizeof(kSignals) / sizeof(kSignals[0]);
 
 std::atomic<int> g_signal{0};
-std::atomic<pid_t> g_child{0};
+// The children a signal is forwarded to (0: a free slot): one for each run
+// of colmap at a time (the sequence pass runs its chain's segments side by
+// side).
+constexpr int kMaxChildren = 64;
+std::atomic<pid_t> g_children[kMaxChildren];
 struct sigaction g_previous[kNumSignals];
 bool g_caught[kNumSignals] = {};
 
@@ -25,8 +29,10 @@ extern "C" void OnInterrupt(int signal) {
   if (!g_signal.compare_exchange_strong(expected, signal)) {
     ::signal(signal, SIG_DFL);
     raise(signal);
-  } else if (const pid_t child = g_child.load(); child != 0) {
-    kill(child, signal);
+  } else {
+    for (std::atomic<pid_t>& slot : g_children) {
+      if (const pid_t child = slot.load(); child != 0) kill(child, signal);
+    }
   }
   errno = saved_errno;
 }
@@ -42,7 +48,7 @@ InterruptScope::InterruptScope() {
   // A new scope starts clean: a signal of an earlier scope (a handled
   // KeyboardInterrupt in a Python session) does not stop this one.
   g_signal.store(0);
-  g_child.store(0);
+  for (std::atomic<pid_t>& slot : g_children) slot.store(0);
   struct sigaction action = {};
   action.sa_handler = OnInterrupt;
   action.sa_flags = SA_RESTART;
@@ -77,10 +83,32 @@ void ThrowIfInterrupted(int wait_status) {
   }
 }
 
-void SetInterruptibleChild(pid_t pid) {
-  g_child.store(pid);
-  const int signal = g_signal.load();
-  if (pid != 0 && signal != 0) kill(pid, signal);
+void AddInterruptibleChild(pid_t pid) {
+  ThrowUnless(pid != 0, "AddInterruptibleChild: no process");
+  bool added = false;
+  for (std::atomic<pid_t>& slot : g_children) {
+    pid_t free = 0;
+    if (slot.compare_exchange_strong(free, pid)) {
+      added = true;
+      break;
+    }
+  }
+  ThrowUnless(added, StrCat("more than ", kMaxChildren,
+                            " interruptible children at once"));
+  if (const int signal = g_signal.load(); signal != 0) kill(pid, signal);
+}
+
+void RemoveInterruptibleChild(pid_t pid) {
+  for (std::atomic<pid_t>& slot : g_children) {
+    pid_t expected = pid;
+    if (slot.compare_exchange_strong(expected, 0)) return;
+  }
+}
+
+size_t NumInterruptibleChildren() {
+  size_t n = 0;
+  for (const std::atomic<pid_t>& slot : g_children) n += slot.load() != 0;
+  return n;
 }
 
 }  // namespace hisfm

@@ -8,6 +8,8 @@
 
 #include <sys/types.h>
 
+#include <cstddef>
+
 #include "hisfm/util/error.h"
 
 namespace hisfm {
@@ -47,9 +49,18 @@ void ThrowIfInterrupted();
 /// child while std::system ignored it here.
 void ThrowIfInterrupted(int wait_status);
 
-/// Registers the child process that a signal is forwarded to (0: none; a
-/// negative value -pgid names a process group, as for kill). If a signal
-/// arrived before the child was registered, it is forwarded at once.
-void SetInterruptibleChild(pid_t pid);
+/// Registers a child process that a signal is forwarded to (a negative
+/// value -pgid names a process group, as for kill); several may be
+/// registered at once, from several threads (up to 64). If a signal arrived
+/// before the child was registered, it is forwarded at once. Throws
+/// hisfm::Error for pid 0 or when every slot is taken.
+void AddInterruptibleChild(pid_t pid);
+
+/// Unregisters a child of AddInterruptibleChild (nothing if it is not
+/// registered).
+void RemoveInterruptibleChild(pid_t pid);
+
+/// How many children are registered.
+size_t NumInterruptibleChildren();
 
 }  // namespace hisfm
