@@ -156,7 +156,8 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
   const size_t num_judged = AddSupportEdges(
       in->graph, scorer, o.support_edges, o.support_threshold, &in->hierarchy,
       &in->reserve_edges, options.hierarchy.skeleton.verify_threshold);
-  const size_t num_asked = NumAskedOfScorer(scores, pre_verified) - known;
+  const size_t num_scored = NumAskedOfScorer(scores, pre_verified);
+  const size_t num_asked = num_scored - known;
   size_t before = 0;
   size_t after = 0;
   if (options.verifier.clean_plugin_inliers) {
@@ -167,7 +168,7 @@ void AddPlugInGeometry(const Database& db, BridgeScorer& scorer,
   }
   in->verification["support_edges_judged"] = num_judged;
   in->verification["support_edges_scored"] = num_asked;
-  in->verification["pairs_scored"] = NumAskedOfScorer(scores, pre_verified);
+  in->verification["pairs_scored"] = num_scored;
   in->verification["support_edges"] = in->hierarchy.support_edges.size();
   in->verification["reserve_edges"] = in->reserve_edges.size();
   in->verification["inliers_before_cleaning"] = before;
@@ -325,17 +326,16 @@ LoadedInput LoadAndBuildHierarchy(
           in.graph, make_scorer, options.hierarchy,
           options.verifier.verified_hierarchy.trusted_edges);
       in.hierarchy = std::move(judged.hierarchy);
-      in.verification = {
-          {"rounds", judged.rounds},
-          {"rejected_trusted_edges", judged.rejected.size()},
-          {"unresolved_trusted_edges", judged.num_unresolved},
-          {"trusted_edges_scored", judged.num_scored},
-          {"pairs_scored", NumAskedOfScorer(judged.scores, pre_verified)}};
+      const size_t num_scored = NumAskedOfScorer(judged.scores, pre_verified);
+      in.verification = {{"rounds", judged.rounds},
+                         {"rejected_trusted_edges", judged.rejected.size()},
+                         {"unresolved_trusted_edges", judged.num_unresolved},
+                         {"trusted_edges_scored", judged.num_scored},
+                         {"pairs_scored", num_scored}};
       HISFM_LOG_INFO(
           "trusted edges: {} scored, {} rejected in {} round(s); {} pairs "
           "scored in all",
-          judged.num_scored, judged.rejected.size(), judged.rounds,
-          NumAskedOfScorer(judged.scores, pre_verified));
+          judged.num_scored, judged.rejected.size(), judged.rounds, num_scored);
       scores = std::move(judged.scores);
       in.rejected_trusted_edges = std::move(judged.rejected);
     } else {
